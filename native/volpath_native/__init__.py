@@ -1,0 +1,6 @@
+"""VolPath's renderer: a numpy + Embree wavefront volumetric path tracer. Never imports bpy."""
+from .scene import (AreaLight, Camera, Film, Material, Medium, Mesh, PointLight, RenderSettings,
+                    Scene, SceneError, SpotLight, SunLight, World)
+from .scene_io import load_scene, save_scene
+
+__version__ = "0.1.0"

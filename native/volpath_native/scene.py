@@ -1,0 +1,438 @@
+"""The scene model: what the renderer consumes and what the Blender add-on exports.
+
+Everything is in world space, metres, scene-linear RGB. Units are physical; the conversion from
+Blender's numbers is the exporter's job (addon/), but this module documents exactly what it
+expects so the renderer can be driven without Blender (see scene_io for the file format).
+
+Conventions
+- Directions of lights are the direction the light *travels* (a Blender lamp's local -Z).
+- Cameras look down their local -Z with +Y up (Blender's convention); camera_to_world has no scale.
+- RGB triples are float64 numpy arrays of shape (3,).
+
+Construction never silently accepts bad data: ``Scene.validate()`` raises ``SceneError`` for
+unusable input and returns a list of warning strings for input that renders with a defined
+fallback (the add-on shows both to the user).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional, Union
+
+import numpy as np
+
+
+class SceneError(ValueError):
+    """Input that cannot be rendered; the message names the offending object."""
+
+
+def rgb(value, name: str = "value") -> np.ndarray:
+    """A finite RGB triple from a scalar or a 3-sequence (raises SceneError otherwise)."""
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 0:
+        arr = np.full(3, float(arr))
+    if arr.shape != (3,):
+        raise SceneError(f"{name}: expected an RGB triple, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise SceneError(f"{name}: non-finite value {arr.tolist()}")
+    return arr
+
+
+def vec3(value, name: str = "vector") -> np.ndarray:
+    arr = np.asarray(value, dtype=np.float64).reshape(-1)
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise SceneError(f"{name}: expected a finite 3-vector, got {np.asarray(value).tolist()}")
+    return arr
+
+
+def unit(value, name: str = "direction") -> np.ndarray:
+    v = vec3(value, name)
+    n = np.linalg.norm(v)
+    if n < 1e-12:
+        raise SceneError(f"{name}: zero-length direction")
+    return v / n
+
+
+# ----------------------------------------------------------------------------------------------
+# Media
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class Medium:
+    """A homogeneous participating medium.
+
+    sigma_s, sigma_a: scattering / absorption coefficients in 1/m (RGB).
+    g: Henyey-Greenstein anisotropy in (-1, 1); > 0 scatters forward.
+    emission: emitted radiance per unit length, W/(m^3 sr) (RGB), as Cycles' volume emission.
+    """
+
+    name: str
+    sigma_s: np.ndarray
+    sigma_a: np.ndarray
+    g: float = 0.0
+    emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self):
+        self.sigma_s = rgb(self.sigma_s, f"medium '{self.name}' sigma_s")
+        self.sigma_a = rgb(self.sigma_a, f"medium '{self.name}' sigma_a")
+        self.emission = rgb(self.emission, f"medium '{self.name}' emission")
+        self.g = float(self.g)
+
+    @property
+    def sigma_t(self) -> np.ndarray:
+        return self.sigma_s + self.sigma_a
+
+    def validate(self) -> list[str]:
+        warnings = []
+        if np.any(self.sigma_s < 0) or np.any(self.sigma_a < 0):
+            warnings.append(f"medium '{self.name}': negative coefficients clamped to 0")
+            self.sigma_s = np.maximum(self.sigma_s, 0.0)
+            self.sigma_a = np.maximum(self.sigma_a, 0.0)
+        if not np.isfinite(self.g) or abs(self.g) >= 1.0:
+            clamped = float(np.clip(np.nan_to_num(self.g), -0.999, 0.999))
+            warnings.append(f"medium '{self.name}': anisotropy {self.g} clamped to {clamped}")
+            self.g = clamped
+        return warnings
+
+
+# ----------------------------------------------------------------------------------------------
+# Surfaces
+# ----------------------------------------------------------------------------------------------
+SURFACE_KINDS = ("diffuse", "null")
+
+
+@dataclass
+class Material:
+    """What a triangle is made of.
+
+    surface: 'diffuse' (Lambertian with albedo base_color) or 'null' (no surface at all: an
+        invisible boundary of the interior medium, as a Cycles volume-only material). Further
+        BSDF kinds (glossy, dielectric) extend SURFACE_KINDS without changing this layout.
+    emission: emitted radiance W/(m^2 sr) (RGB) of the surface (mesh light).
+    two_sided_emission: Cycles' mesh lights emit from both faces (True, the default).
+    medium: index into Scene.media of the medium inside the closed mesh (-1: none). Entered on a
+        front-face hit, left on a back-face hit.
+    """
+
+    name: str
+    surface: str = "diffuse"
+    base_color: np.ndarray = field(default_factory=lambda: np.full(3, 0.8))
+    emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    two_sided_emission: bool = True
+    medium: int = -1
+
+    def __post_init__(self):
+        self.base_color = rgb(self.base_color, f"material '{self.name}' base_color")
+        self.emission = rgb(self.emission, f"material '{self.name}' emission")
+        self.medium = int(self.medium)
+
+    @property
+    def is_emissive(self) -> bool:
+        return bool(np.any(self.emission > 0))
+
+
+# ----------------------------------------------------------------------------------------------
+# Geometry
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class Mesh:
+    """A triangle mesh in world space.
+
+    vertices: (V, 3) float32; triangles: (T, 3) int32 vertex indices (counter-clockwise seen
+    from the front, so the geometric normal points outward for closed meshes);
+    material_ids: (T,) int32 indices into Scene.materials;
+    corner_normals: optional (T, 3, 3) float32 shading normals per triangle corner (smooth and
+    custom split normals); None means flat shading.
+    """
+
+    name: str
+    vertices: np.ndarray
+    triangles: np.ndarray
+    material_ids: np.ndarray
+    corner_normals: Optional[np.ndarray] = None
+
+    def __post_init__(self):
+        self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float32).reshape(-1, 3)
+        self.triangles = np.ascontiguousarray(self.triangles, dtype=np.int32).reshape(-1, 3)
+        self.material_ids = np.ascontiguousarray(self.material_ids, dtype=np.int32).reshape(-1)
+        if self.corner_normals is not None:
+            self.corner_normals = np.ascontiguousarray(self.corner_normals, dtype=np.float32).reshape(-1, 3, 3)
+
+    def validate(self, n_materials: int) -> list[str]:
+        n_tri = len(self.triangles)
+        if len(self.material_ids) != n_tri:
+            raise SceneError(f"mesh '{self.name}': {len(self.material_ids)} material ids for {n_tri} triangles")
+        if n_tri and (self.triangles.min() < 0 or self.triangles.max() >= len(self.vertices)):
+            raise SceneError(f"mesh '{self.name}': triangle index out of range")
+        if n_tri and (self.material_ids.min() < 0 or self.material_ids.max() >= n_materials):
+            raise SceneError(f"mesh '{self.name}': material id out of range")
+        if not np.all(np.isfinite(self.vertices)):
+            raise SceneError(f"mesh '{self.name}': non-finite vertex coordinates")
+        if self.corner_normals is not None and self.corner_normals.shape != (n_tri, 3, 3):
+            raise SceneError(f"mesh '{self.name}': corner_normals must have shape ({n_tri}, 3, 3)")
+        warnings = []
+        if n_tri:
+            v = self.vertices[self.triangles].astype(np.float64)
+            area2 = np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
+            n_degenerate = int(np.count_nonzero(area2 <= 1e-20))
+            if n_degenerate:
+                warnings.append(f"mesh '{self.name}': {n_degenerate} degenerate triangles ignored")
+        return warnings
+
+    def open_edge_count(self, triangle_mask: Optional[np.ndarray] = None) -> int:
+        """Edges used by exactly one (non-degenerate) triangle: 0 for a closed (watertight) mesh."""
+        tris = self.triangles if triangle_mask is None else self.triangles[triangle_mask]
+        if len(tris) == 0:
+            return 0
+        edges = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+        _, counts = np.unique(edges, axis=0, return_counts=True)
+        return int(np.count_nonzero(counts == 1))
+
+
+# ----------------------------------------------------------------------------------------------
+# Lights (power in W, colour folded in: power is an RGB triple)
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class PointLight:
+    """Point light of total power `power` W (RGB). radius > 0 makes it a sphere light.
+
+    radius 0: radiant intensity I = power / (4 pi) W/sr (Cycles, scene/light.cpp).
+    soft_falloff: Blender 4.0+'s default for sphere lights (falloff 1/(d^2 + r^2) near the light).
+    """
+
+    name: str
+    position: np.ndarray
+    power: np.ndarray
+    radius: float = 0.0
+    soft_falloff: bool = True
+
+    def __post_init__(self):
+        self.position = vec3(self.position, f"light '{self.name}' position")
+        self.power = rgb(self.power, f"light '{self.name}' power")
+        self.radius = float(self.radius)
+
+
+@dataclass
+class SpotLight(PointLight):
+    """A point/sphere light masked by a cone around `direction`.
+
+    spot_size: full cone angle in radians (Blender's spot_size); spot_blend in [0, 1] smooths the
+    edge with smoothstep as Cycles. Power is not renormalised into the cone (Cycles).
+    """
+
+    direction: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
+    spot_size: float = np.pi / 4
+    spot_blend: float = 0.15
+
+    def __post_init__(self):
+        super().__post_init__()
+        self.direction = unit(self.direction, f"light '{self.name}' direction")
+        self.spot_size = float(self.spot_size)
+        self.spot_blend = float(self.spot_blend)
+
+
+AREA_SHAPES = ("square", "rectangle", "disk", "ellipse")
+
+
+@dataclass
+class AreaLight:
+    """A one-sided area light emitting along `direction` (the lamp's local -Z).
+
+    axis_u, axis_v: world-space vectors spanning the full width and height of the light (the
+    lamp's local X and Y scaled by size and object scale). Radiance L = power / (pi * area).
+    """
+
+    name: str
+    position: np.ndarray
+    axis_u: np.ndarray
+    axis_v: np.ndarray
+    power: np.ndarray
+    shape: str = "square"
+
+    def __post_init__(self):
+        self.position = vec3(self.position, f"light '{self.name}' position")
+        self.axis_u = vec3(self.axis_u, f"light '{self.name}' axis_u")
+        self.axis_v = vec3(self.axis_v, f"light '{self.name}' axis_v")
+        self.power = rgb(self.power, f"light '{self.name}' power")
+
+    @property
+    def direction(self) -> np.ndarray:
+        n = np.cross(self.axis_u, self.axis_v)
+        return -n / max(np.linalg.norm(n), 1e-30)
+
+    @property
+    def area(self) -> float:
+        a = float(np.linalg.norm(np.cross(self.axis_u, self.axis_v)))
+        return a * np.pi / 4 if self.shape in ("disk", "ellipse") else a
+
+
+@dataclass
+class SunLight:
+    """Distant light. irradiance: W/m^2 on a surface facing the sun (RGB), angle: angular diameter."""
+
+    name: str
+    direction: np.ndarray
+    irradiance: np.ndarray
+    angle: float = 0.0
+
+    def __post_init__(self):
+        self.direction = unit(self.direction, f"light '{self.name}' direction")
+        self.irradiance = rgb(self.irradiance, f"light '{self.name}' irradiance")
+        self.angle = float(self.angle)
+
+
+Light = Union[PointLight, SpotLight, AreaLight, SunLight]
+
+
+# ----------------------------------------------------------------------------------------------
+# Camera, film, world
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class Camera:
+    """Blender-style camera.
+
+    projection: 'perspective' or 'orthographic'.
+    fov: full field of view in radians across the fitted sensor axis (perspective).
+    ortho_scale: width in metres across the fitted axis (orthographic).
+    sensor_fit: 'AUTO' (fit the larger image side), 'HORIZONTAL' or 'VERTICAL'.
+    shift_x, shift_y: lens shift in units of the fitted image dimension (Blender's).
+    """
+
+    camera_to_world: np.ndarray
+    projection: str = "perspective"
+    fov: float = np.radians(39.6)
+    ortho_scale: float = 6.0
+    sensor_fit: str = "AUTO"
+    shift_x: float = 0.0
+    shift_y: float = 0.0
+    clip_start: float = 0.1
+    clip_end: float = 1000.0
+
+    def __post_init__(self):
+        self.camera_to_world = np.asarray(self.camera_to_world, dtype=np.float64).reshape(4, 4)
+
+
+FILTERS = ("blackman-harris", "box", "gaussian")
+
+
+@dataclass
+class Film:
+    """Output resolution and pixel filter.
+
+    crop: optional (xmin, xmax, ymin, ymax) fractions of the frame, Blender's border convention
+        (y measured from the bottom). Only the crop region is rendered.
+    filter: 'blackman-harris' (Cycles' default; filter_width is Blender's number, 1.5 px, which
+        Cycles doubles internally to a +-1.5 px support), 'gaussian' or 'box' (width in px).
+    """
+
+    width: int
+    height: int
+    crop: Optional[tuple] = None
+    filter: str = "blackman-harris"
+    filter_width: float = 1.5
+
+
+@dataclass
+class World:
+    """Constant background radiance (RGB, W/(m^2 sr)) and the medium that fills all space outside
+    closed media (-1: vacuum)."""
+
+    background: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    medium: int = -1
+
+    def __post_init__(self):
+        self.background = rgb(self.background, "world background")
+        self.medium = int(self.medium)
+
+
+@dataclass
+class RenderSettings:
+    """Sampling and bounce limits, with Cycles' meaning.
+
+    Bounce counts as Cycles' (kernel/integrator/path_state.h): volume_bounces = 0 still allows one
+    scattering vertex with next-event estimation. transparent_bounces counts null-boundary crossings.
+    volume_sampling: 'mis' (distance + equiangular, one-sample MIS, Cycles' default for
+    materials), 'distance' or 'equiangular'.
+    """
+
+    samples: int = 16
+    seed: int = 0
+    max_bounces: int = 12
+    diffuse_bounces: int = 4
+    glossy_bounces: int = 4
+    transmission_bounces: int = 12
+    volume_bounces: int = 0
+    transparent_bounces: int = 8
+    volume_sampling: str = "mis"
+    russian_roulette_min_bounces: int = 3
+    batch_size: int = 1 << 16
+    threads: int = 0  # 0: all cores
+
+
+@dataclass
+class Scene:
+    camera: Camera
+    film: Film
+    meshes: list = field(default_factory=list)
+    materials: list = field(default_factory=list)
+    media: list = field(default_factory=list)
+    lights: list = field(default_factory=list)
+    world: World = field(default_factory=World)
+    settings: RenderSettings = field(default_factory=RenderSettings)
+
+    def validate(self) -> list[str]:
+        """Raise SceneError for unusable input; fix up and return warnings for recoverable input."""
+        warnings: list[str] = []
+        if self.film.width < 1 or self.film.height < 1:
+            raise SceneError(f"film resolution {self.film.width}x{self.film.height} is empty")
+        if self.film.filter not in FILTERS:
+            raise SceneError(f"unknown pixel filter '{self.film.filter}' (expected one of {FILTERS})")
+        if self.camera.projection not in ("perspective", "orthographic"):
+            raise SceneError(f"unknown camera projection '{self.camera.projection}'")
+        if not np.all(np.isfinite(self.camera.camera_to_world)):
+            raise SceneError("camera transform is not finite")
+        for medium in self.media:
+            warnings += medium.validate()
+        n_media = len(self.media)
+        for material in self.materials:
+            if material.surface not in SURFACE_KINDS:
+                raise SceneError(f"material '{material.name}': unknown surface '{material.surface}'")
+            if not -1 <= material.medium < n_media:
+                raise SceneError(f"material '{material.name}': medium index {material.medium} out of range")
+            if np.any(material.base_color < 0) or np.any(material.emission < 0):
+                warnings.append(f"material '{material.name}': negative colour clamped to 0")
+                material.base_color = np.maximum(material.base_color, 0.0)
+                material.emission = np.maximum(material.emission, 0.0)
+        if not -1 <= self.world.medium < n_media:
+            raise SceneError(f"world medium index {self.world.medium} out of range")
+        for mesh in self.meshes:
+            warnings += mesh.validate(len(self.materials))
+            medium_faces = np.array([m.medium >= 0 for m in self.materials], dtype=bool)
+            if len(mesh.triangles) and medium_faces.size and medium_faces[mesh.material_ids].any():
+                open_edges = mesh.open_edge_count(medium_faces[mesh.material_ids])
+                if open_edges:
+                    raise SceneError(
+                        f"mesh '{mesh.name}' bounds a medium but is not closed ({open_edges} open edges): "
+                        "rays would enter the medium and never leave it")
+        for light in self.lights:
+            warnings += _validate_light(light)
+        if not self.meshes and not self.lights and not np.any(self.world.background > 0):
+            warnings.append("the scene is empty: nothing emits light, the image is black")
+        return warnings
+
+
+def _validate_light(light) -> list[str]:
+    name = f"light '{light.name}'"
+    power = light.irradiance if isinstance(light, SunLight) else light.power
+    if np.any(power < 0):
+        raise SceneError(f"{name}: negative power {power.tolist()}")
+    if isinstance(light, AreaLight):
+        if light.shape not in AREA_SHAPES:
+            raise SceneError(f"{name}: unknown area shape '{light.shape}'")
+        if light.area <= 1e-12:
+            raise SceneError(f"{name}: area light has zero size")
+    if isinstance(light, PointLight) and light.radius < 0:
+        raise SceneError(f"{name}: negative radius")
+    if isinstance(light, SunLight) and not 0 <= light.angle < np.pi:
+        raise SceneError(f"{name}: sun angle {light.angle} outside [0, pi)")
+    if not np.any(power > 0):
+        return [f"{name}: zero power, ignored"]
+    return []

@@ -1,0 +1,108 @@
+"""Saved-scene format (`.vpscene`): lets the renderer run without Blender.
+
+A `.vpscene` file is a numpy `.npz` archive (uncompressed zip) holding
+- `scene.json`: a UTF-8 JSON document (stored as a uint8 array) with
+  `{"format": "volpath-scene", "version": FORMAT_VERSION, "camera": {...}, "film": {...},
+  "world": {...}, "settings": {...}, "materials": [...], "media": [...], "lights": [...],
+  "meshes": [{"name": ..., "smooth": bool}, ...]}`; every object's fields are exactly the
+  dataclass fields of `scene.py` (RGB triples and vectors as JSON lists), and each light carries a
+  `"type"`: "point", "spot", "area" or "sun".
+- for mesh i: arrays `mesh{i}.vertices` (V,3 float32), `mesh{i}.triangles` (T,3 int32),
+  `mesh{i}.material_ids` (T int32) and, when smooth, `mesh{i}.corner_normals` (T,3,3 float32).
+
+Readers reject files whose version is newer than theirs; older versions are upgraded here.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+from . import scene as sc
+
+FORMAT_NAME = "volpath-scene"
+FORMAT_VERSION = 1
+
+_LIGHT_TYPES = {"point": sc.PointLight, "spot": sc.SpotLight, "area": sc.AreaLight, "sun": sc.SunLight}
+_LIGHT_NAMES = {cls: name for name, cls in _LIGHT_TYPES.items()}
+
+
+def _to_json(obj) -> dict:
+    out = {}
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if isinstance(value, np.ndarray):
+            value = value.tolist()
+        elif isinstance(value, tuple):
+            value = list(value)
+        elif isinstance(value, np.generic):
+            value = value.item()
+        out[f.name] = value
+    return out
+
+
+def save_scene(scene: sc.Scene, path) -> Path:
+    path = Path(path)
+    header = {
+        "format": FORMAT_NAME,
+        "version": FORMAT_VERSION,
+        "camera": _to_json(scene.camera),
+        "film": _to_json(scene.film),
+        "world": _to_json(scene.world),
+        "settings": _to_json(scene.settings),
+        "materials": [_to_json(m) for m in scene.materials],
+        "media": [_to_json(m) for m in scene.media],
+        "lights": [dict(_to_json(light), type=_LIGHT_NAMES[type(light)]) for light in scene.lights],
+        "meshes": [{"name": m.name, "smooth": m.corner_normals is not None} for m in scene.meshes],
+    }
+    arrays = {"scene.json": np.frombuffer(json.dumps(header).encode("utf-8"), dtype=np.uint8)}
+    for i, mesh in enumerate(scene.meshes):
+        arrays[f"mesh{i}.vertices"] = mesh.vertices
+        arrays[f"mesh{i}.triangles"] = mesh.triangles
+        arrays[f"mesh{i}.material_ids"] = mesh.material_ids
+        if mesh.corner_normals is not None:
+            arrays[f"mesh{i}.corner_normals"] = mesh.corner_normals
+    with open(path, "wb") as f:  # a file object keeps numpy from appending ".npz"
+        np.savez(f, **arrays)
+    return path
+
+
+def load_scene(path) -> sc.Scene:
+    with np.load(Path(path), allow_pickle=False) as data:
+        try:
+            header = json.loads(bytes(data["scene.json"]).decode("utf-8"))
+        except KeyError:
+            raise sc.SceneError(f"{path}: not a VolPath scene (no scene.json)") from None
+        if header.get("format") != FORMAT_NAME:
+            raise sc.SceneError(f"{path}: not a VolPath scene")
+        if int(header.get("version", 0)) > FORMAT_VERSION:
+            raise sc.SceneError(f"{path}: scene format version {header['version']} is newer than "
+                                f"this renderer's ({FORMAT_VERSION}); update VolPath")
+        meshes = []
+        for i, info in enumerate(header["meshes"]):
+            meshes.append(sc.Mesh(
+                name=info["name"],
+                vertices=data[f"mesh{i}.vertices"],
+                triangles=data[f"mesh{i}.triangles"],
+                material_ids=data[f"mesh{i}.material_ids"],
+                corner_normals=data[f"mesh{i}.corner_normals"] if info.get("smooth") else None,
+            ))
+    film = dict(header["film"])
+    if film.get("crop") is not None:
+        film["crop"] = tuple(film["crop"])
+    lights = []
+    for entry in header["lights"]:
+        entry = dict(entry)
+        lights.append(_LIGHT_TYPES[entry.pop("type")](**entry))
+    return sc.Scene(
+        camera=sc.Camera(**header["camera"]),
+        film=sc.Film(**film),
+        meshes=meshes,
+        materials=[sc.Material(**m) for m in header["materials"]],
+        media=[sc.Medium(**m) for m in header["media"]],
+        lights=lights,
+        world=sc.World(**header["world"]),
+        settings=sc.RenderSettings(**header["settings"]),
+    )
