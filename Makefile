@@ -1,0 +1,36 @@
+# volpath's front door. Every target creates or reuses .venv (Python 3.11, bpy==5.0.1).
+PYTHON_SYS ?= python3.11
+VENV       := .venv
+PY         := $(VENV)/bin/python
+BLENDER    ?= $(shell command -v blender 2>/dev/null)
+OUT        ?= out/demo
+
+.PHONY: venv demo test test-native test-addon test-compare extension install-blender bench clean
+
+venv: $(VENV)/.stamp
+$(VENV)/.stamp: requirements.txt native/pyproject.toml
+	test -x $(PY) || $(PYTHON_SYS) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -r requirements.txt
+	$(PY) -m pip install -q -e native
+	touch $@
+
+# The main job: build the Cornell fog example, render it with VolPath and Cycles, compare.
+demo: venv
+	$(PY) -m addon.compare demo --out $(OUT)
+
+test: venv
+	$(PY) -m pytest -q tests
+
+extension: venv
+	$(PY) -m addon.build_extension build
+
+install-blender: venv
+	@test -n "$(BLENDER)" || { echo "usage: make install-blender BLENDER=/path/to/blender"; exit 2; }
+	$(PY) -m addon.build_extension install --blender "$(BLENDER)"
+
+bench: venv
+	$(PY) tests/benchmarks/run_all.py
+
+clean:
+	rm -rf build dist wheels out
