@@ -1,0 +1,125 @@
+"""The VolPath render engine: F12 / `blender -b -E VOLPATH` export the evaluated scene and render
+it progressively into Blender's Render Result.
+
+Runs on Blender's render thread: no bpy.context here, only the depsgraph it is given.
+"""
+from __future__ import annotations
+
+import time
+import traceback
+
+import bpy
+import numpy as np
+
+
+class VolpathRenderEngine(bpy.types.RenderEngine):
+    bl_idname = "VOLPATH"
+    bl_label = "VolPath"
+    bl_use_preview = False  # no material previews: those stay with EEVEE
+    bl_use_postprocess = True  # compositing and sequencer still apply
+    bl_use_eevee_viewport = True  # Material Preview in the viewport uses EEVEE, not us
+    bl_use_shading_nodes_custom = False  # Blender's own shader nodes are our materials
+
+    def render(self, depsgraph):
+        try:
+            import volpath_native as vp
+            from volpath_native.render import render as render_scene
+        except ImportError as error:  # e.g. the extension's wheels did not install
+            self._fail(f"VolPath's renderer could not be loaded ({error}); reinstall the add-on")
+            return
+        from .export import export_scene
+
+        started = time.perf_counter()
+        try:
+            scene, warnings = export_scene(depsgraph, camera_object=self.camera_override)
+        except vp.SceneError as error:
+            self._fail(str(error))
+            return
+        except Exception as error:  # an exporter bug must not take Blender down
+            traceback.print_exc()
+            self._fail(f"VolPath could not export the scene: {type(error).__name__}: {error}")
+            return
+        for message in warnings:
+            self.report({"WARNING"}, message)
+        export_seconds = time.perf_counter() - started
+
+        _, _, width, height = _crop_window(scene.film)
+        layer_name = depsgraph.view_layer.name
+        # The Render Result covers the border region only (Blender crops it itself); its rows run
+        # bottom-up.
+        result = self.begin_result(0, 0, width, height, layer=layer_name)
+        total = scene.settings.samples
+        self.update_stats("", f"VolPath | exported in {export_seconds:.2f} s | rendering")
+
+        def progress(done, samples_total, stats):
+            self.update_progress(done / max(samples_total, 1))
+            rays = stats.get("rays_per_second", 0.0)
+            self.update_stats("", f"VolPath | Sample {done}/{samples_total} | "
+                                  f"{stats.get('seconds', 0.0):.1f} s | {rays / 1e6:.2f} M rays/s")
+
+        def partial(image):
+            if not _write_combined(result, image):
+                self._report_size_mismatch(image, result)
+            self.update_result(result)
+
+        try:
+            output = render_scene(scene, progress=progress, cancel=self.test_break, partial=partial)
+        except vp.SceneError as error:
+            self.end_result(result)
+            self._fail(str(error))
+            return
+        except Exception as error:
+            traceback.print_exc()
+            self.end_result(result)
+            self._fail(f"VolPath failed while rendering: {type(error).__name__}: {error}")
+            return
+        for message in output.warnings:
+            if message not in warnings:
+                self.report({"WARNING"}, message)
+        if not _write_combined(result, output.image):
+            self._report_size_mismatch(output.image, result)
+        self.end_result(result)
+        done = "cancelled" if output.cancelled else "done"
+        self.update_stats("", f"VolPath | {done}: {output.samples}/{total} samples in {output.seconds:.1f} s")
+
+    def _report_size_mismatch(self, image, result):
+        if not getattr(self, "_size_reported", False):
+            self._size_reported = True
+            self.report({"WARNING"}, f"VolPath rendered {image.shape[1]}x{image.shape[0]} pixels for a "
+                                     f"{result.resolution_x}x{result.resolution_y} result; image cropped/padded")
+
+    def _fail(self, message: str):
+        self.report({"ERROR"}, message)
+        self.error_set(message)
+
+
+def _crop_window(film):
+    """(x0, y0 from the top, width, height) of the rendered region, as the renderer computes it."""
+    from volpath_native.camera import crop_window
+
+    return crop_window(film)
+
+
+def _write_combined(result, image: np.ndarray) -> bool:
+    """Put an (H, W, 4) top-down RGBA image into the result's Combined pass (bottom-up rows).
+    Returns False (after writing the overlap) if the sizes disagree, which would be a bug."""
+    combined = result.layers[0].passes["Combined"]
+    height, width = result.resolution_y, result.resolution_x
+    pixels = np.zeros((height, width, 4), dtype=np.float32)
+    h, w = min(height, image.shape[0]), min(width, image.shape[1])
+    pixels[:h, :w] = image[:h, :w, :4]
+    combined.rect.foreach_set(pixels[::-1].reshape(-1))
+    return image.shape[:2] == (height, width)
+
+
+CLASSES = (VolpathRenderEngine,)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,79 @@
+"""Evaluated geometry -> world-space VolPath meshes, all array work in numpy.
+
+Each distinct evaluated mesh is triangulated once (to_mesh / loop triangles / foreach_get) and then
+transformed per instance, so instancing costs one matrix product per copy.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+import volpath_native as vp
+
+from .. import compat
+
+# Object types that evaluate to a mesh (Object.to_mesh supports them).
+GEOMETRY_TYPES = frozenset({"MESH", "CURVE", "SURFACE", "FONT", "META"})
+
+
+@dataclass
+class LocalMesh:
+    """A triangulated mesh in object space; material_slots are the slot indices per triangle."""
+
+    vertices: np.ndarray  # (V, 3) float32
+    triangles: np.ndarray  # (T, 3) int32
+    material_slots: np.ndarray  # (T,) int32
+    corner_normals: Optional[np.ndarray]  # (T, 3, 3) float32 or None (flat)
+
+
+def triangulate(obj) -> Optional[LocalMesh]:
+    """The evaluated object's geometry as triangles (None when it has none)."""
+    mesh = obj.to_mesh()
+    try:
+        if mesh is None:
+            return None
+        mesh.calc_loop_triangles()
+        n_tri = len(mesh.loop_triangles)
+        if n_tri == 0:
+            return None
+        vertices = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+        mesh.vertices.foreach_get("co", vertices)
+        triangles = np.empty(n_tri * 3, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("vertices", triangles)
+        material_slots = np.empty(n_tri, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("material_index", material_slots)
+        smooth = np.empty(len(mesh.polygons), dtype=bool)
+        mesh.polygons.foreach_get("use_smooth", smooth)
+        corner_normals = None
+        if smooth.any() or mesh.has_custom_normals:
+            # Corner normals already hold the face normal on flat faces and sharp edges.
+            loops = np.empty(n_tri * 3, dtype=np.int32)
+            mesh.loop_triangles.foreach_get("loops", loops)
+            corner_normals = compat.corner_normals(mesh)[loops].reshape(n_tri, 3, 3)
+        return LocalMesh(vertices.reshape(-1, 3), triangles.reshape(-1, 3), material_slots, corner_normals)
+    finally:
+        obj.to_mesh_clear()
+
+
+def to_world(name: str, local: LocalMesh, matrix_world: np.ndarray, slot_materials: np.ndarray) -> vp.Mesh:
+    """Place a LocalMesh in the world; slot_materials maps slot index -> Scene.materials index."""
+    linear = matrix_world[:3, :3]
+    vertices = local.vertices.astype(np.float64) @ linear.T + matrix_world[:3, 3]
+    triangles = local.triangles
+    corner_normals = local.corner_normals
+    if corner_normals is not None:
+        # Normals transform with the inverse transpose: n_world = n @ inverse(linear).
+        normals = corner_normals.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(linear)
+        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+        corner_normals = normals.reshape(-1, 3, 3)
+    if np.linalg.det(linear) < 0.0:
+        # A mirroring transform flips the winding: swap two corners to keep normals outward.
+        triangles = triangles[:, [0, 2, 1]]
+        if corner_normals is not None:
+            corner_normals = corner_normals[:, [0, 2, 1]]
+    # Blender clamps out-of-range material indices to the last slot.
+    slots = np.clip(local.material_slots, 0, len(slot_materials) - 1)
+    return vp.Mesh(name=name, vertices=vertices, triangles=triangles,
+                   material_ids=slot_materials[slots], corner_normals=corner_normals)

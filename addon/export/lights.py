@@ -1,0 +1,82 @@
+"""Blender lights -> VolPath lights, with Cycles' conversions.
+
+Strength S = colour x energy x 2^exposure (x temperature colour): intern/cycles/blender/light.cpp
+(BlenderSync::sync_light), see compat.light_color_factor. Cycles turns S into radiance by dividing
+by pi x area only when the light is normalised (intern/cycles/scene/light.cpp, *::copy_to_kernel:
+invarea = normalize ? 1/area : 1). VolPath's model always takes the normalised quantity (power,
+or irradiance for the sun), so an unnormalised light is exported with S x area.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+import volpath_native as vp
+
+from .. import compat
+
+_AREA_SHAPES = {"SQUARE": "square", "RECTANGLE": "rectangle", "DISK": "disk", "ELLIPSE": "ellipse"}
+
+
+def _point_area(radius: float) -> float:
+    # scene/light.cpp PointLight::area: sphere area, or 4 for r = 0 (so that I = S / (4 pi)).
+    area = 4.0 * math.pi * radius * radius
+    return area if area > 0.0 else 4.0
+
+
+def _sun_area(angle: float) -> float:
+    # scene/light.cpp SunLight::area: the sun disk's projected solid angle, 1 for a point sun.
+    return math.pi * math.sin(angle * 0.5) ** 2 if angle > 0.0 else 1.0
+
+
+def export_light(obj, matrix_world: np.ndarray, reporter):
+    """The VolPath light for a Blender light object at `matrix_world` (4x4), or None."""
+    light = obj.data
+    name = obj.name
+    strength = compat.light_color_factor(light) * float(light.energy)
+    normalized = compat.light_is_normalized(light)
+    position = matrix_world[:3, 3]
+    direction = -matrix_world[:3, 2]  # a lamp shines down its local -Z
+    if not getattr(light, "use_shadow", True):
+        reporter.warn(f"light '{name}': 'Cast Shadow' off is not supported; it casts shadows")
+
+    if light.type in ("POINT", "SPOT"):
+        radius = max(float(light.shadow_soft_size), 0.0)
+        power = strength if normalized else strength * _point_area(radius)
+        common = dict(name=name, position=position, power=power, radius=radius,
+                      soft_falloff=compat.light_soft_falloff(light))
+        if light.type == "POINT":
+            return vp.PointLight(**common)
+        if getattr(light, "use_square", False):
+            reporter.warn(f"light '{name}': square spot cones are not supported; rendered round")
+        # blender/light.cpp: spot_angle = spot_size (full cone), spot_smooth = spot_blend.
+        return vp.SpotLight(**common, direction=direction, spot_size=float(light.spot_size),
+                            spot_blend=float(light.spot_blend))
+
+    if light.type == "AREA":
+        shape = _AREA_SHAPES[light.shape]
+        size_u = float(light.size)
+        size_v = float(light.size_y) if shape in ("rectangle", "ellipse") else size_u
+        # scene/light.cpp AreaLight: extent = object axis (with scale) x size.
+        axis_u = matrix_world[:3, 0] * size_u
+        axis_v = matrix_world[:3, 1] * size_v
+        if np.dot(np.cross(axis_u, axis_v), direction) > 0.0:  # mirrored transform: keep -Z
+            axis_v = -axis_v
+        area = float(np.linalg.norm(axis_u) * np.linalg.norm(axis_v))
+        if shape in ("disk", "ellipse"):
+            area *= math.pi / 4.0
+        if float(getattr(light, "spread", math.pi)) < math.pi - 1e-6:
+            reporter.warn(f"light '{name}': spread {math.degrees(light.spread):.1f} deg is not "
+                          "supported; rendered with 180 deg")
+        power = strength if normalized else strength * area
+        return vp.AreaLight(name=name, position=position, axis_u=axis_u, axis_v=axis_v,
+                            power=power, shape=shape)
+
+    if light.type == "SUN":
+        angle = float(light.angle)
+        irradiance = strength if normalized else strength * _sun_area(angle)
+        return vp.SunLight(name=name, direction=direction, irradiance=irradiance, angle=angle)
+
+    reporter.warn(f"light '{name}': type {light.type} is not supported; ignored")
+    return None

@@ -1,0 +1,352 @@
+"""Blender materials and the world -> VolPath Material / Medium / World.
+
+The node trees are read, not executed: the closures VolPath supports combine linearly (Add Shader,
+Mix Shader with a constant factor), so a tree reduces to sums of weighted terms.
+
+Supported, with Cycles' meaning (intern/cycles/kernel/svm/closure.h):
+- Surface: Diffuse BSDF, Principled BSDF (see _principled), Emission, Add / Mix Shader.
+- Volume: Principled Volume, Volume Scatter (Henyey-Greenstein), Volume Absorption, Volume
+  Coefficients (5.0), Emission, Add / Mix Shader.
+- World: Background colour x strength, and the Volume output.
+Documented fallbacks (each one reported as a warning naming the material and the node):
+- a linked input (texture, attribute...) uses the socket's own unlinked value; RGB and Value nodes
+  feeding an input are read as the constants they are;
+- an unsupported surface node renders as Cycles' default surface, a 0.8 grey diffuse;
+- an unsupported volume node contributes no medium.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+import volpath_native as vp
+
+from .. import compat
+
+# Cycles' surface for objects without a material (scene/shader.cpp: the default surface shader is
+# a Diffuse BSDF with colour 0.8).
+DEFAULT_ALBEDO = 0.8
+# Cycles clamps Henyey-Greenstein's g to +-(1 - 1e-3) (kernel/closure/volume_henyey_greenstein.h).
+HG_G_LIMIT = 1.0 - 1e-3
+
+
+class Reporter:
+    """Collects warnings once each, in order."""
+
+    def __init__(self):
+        self.messages: list[str] = []
+        self._seen: set[str] = set()
+
+    def warn(self, message: str):
+        if message not in self._seen:
+            self._seen.add(message)
+            self.messages.append(message)
+
+
+# ----------------------------------------------------------------------------------------------
+# Reading node inputs
+# ----------------------------------------------------------------------------------------------
+def _source_socket(socket):
+    """The output socket feeding `socket` through reroutes and muted links, or None."""
+    for link in socket.links:
+        if link.is_muted or not link.is_valid:
+            continue
+        source = link.from_socket
+        while source.node.type == "REROUTE":
+            inputs = source.node.inputs
+            if not inputs or not inputs[0].is_linked:
+                return None
+            return _source_socket(inputs[0])
+        return source
+    return None
+
+
+class _NodeReader:
+    """Reads constant inputs of one material's nodes, warning about what it cannot evaluate."""
+
+    def __init__(self, owner: str, reporter: Reporter):
+        self.owner = owner  # e.g. "material 'Fog'"
+        self.reporter = reporter
+
+    def warn(self, node, message: str):
+        self.reporter.warn(f"{self.owner}: node '{node.name}' ({node.bl_idname}): {message}")
+
+    def value(self, node, socket):
+        """The socket's constant value: float, or an RGB float64 array for colours/vectors."""
+        source = _source_socket(socket) if socket.is_linked else None
+        if source is not None:
+            if source.node.type in ("RGB", "VALUE"):  # constants feeding the input
+                return _as_value(source.default_value)
+            self.warn(node, f"input '{socket.name}' is driven by '{source.node.name}' "
+                            f"({source.node.bl_idname}), which VolPath cannot evaluate; "
+                            "using the input's own value")
+        return _as_value(socket.default_value)
+
+    def rgb(self, node, name_or_socket) -> np.ndarray:
+        socket = node.inputs[name_or_socket] if isinstance(name_or_socket, str) else name_or_socket
+        value = self.value(node, socket)
+        return value if isinstance(value, np.ndarray) else np.full(3, value)
+
+    def scalar(self, node, name_or_socket) -> float:
+        socket = node.inputs[name_or_socket] if isinstance(name_or_socket, str) else name_or_socket
+        value = self.value(node, socket)
+        return float(np.mean(value)) if isinstance(value, np.ndarray) else float(value)
+
+
+def _as_value(default_value):
+    try:
+        return np.array(default_value[:3], dtype=np.float64)
+    except TypeError:
+        return float(default_value)
+
+
+def _mix_factor(reader: _NodeReader, node) -> float:
+    return float(np.clip(reader.scalar(node, node.inputs[0]), 0.0, 1.0))
+
+
+# ----------------------------------------------------------------------------------------------
+# Surfaces
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class _Surface:
+    albedo: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def scaled(self, w: float) -> "_Surface":
+        return _Surface(self.albedo * w, self.emission * w)
+
+    def __add__(self, other: "_Surface") -> "_Surface":
+        return _Surface(self.albedo + other.albedo, self.emission + other.emission)
+
+
+def _surface_from(reader: _NodeReader, socket) -> _Surface:
+    """The surface closure feeding `socket` (a shader socket); black if nothing is connected."""
+    source = _source_socket(socket)
+    if source is None:
+        return _Surface()
+    node = source.node
+    if node.mute:
+        return _Surface()
+    kind = node.type
+    if kind == "BSDF_DIFFUSE":
+        roughness = reader.scalar(node, "Roughness")
+        if roughness > 0.0:
+            reader.warn(node, f"Oren-Nayar roughness {roughness:g} is rendered as Lambertian (roughness 0)")
+        return _Surface(albedo=np.clip(reader.rgb(node, "Color"), 0.0, None))
+    if kind == "BSDF_PRINCIPLED":
+        return _principled(reader, node)
+    if kind == "EMISSION":
+        # Emission closure radiance = colour x strength, both faces (kernel/closure/emissive.h).
+        return _Surface(emission=reader.rgb(node, "Color") * reader.scalar(node, "Strength"))
+    if kind == "ADD_SHADER":
+        return _surface_from(reader, node.inputs[0]) + _surface_from(reader, node.inputs[1])
+    if kind == "MIX_SHADER":
+        f = _mix_factor(reader, node)
+        return (_surface_from(reader, node.inputs[1]).scaled(1.0 - f)
+                + _surface_from(reader, node.inputs[2]).scaled(f))
+    reader.warn(node, f"unsupported surface shader; rendered as a {DEFAULT_ALBEDO} grey diffuse surface")
+    return _Surface(albedo=np.full(3, DEFAULT_ALBEDO))
+
+
+def _principled(reader: _NodeReader, node) -> _Surface:
+    """Principled BSDF as its diffuse layer: Base Color (clamped to [0, 1] as Cycles does,
+    svm/closure.h) x (1 - Metallic) x (1 - Transmission), plus Emission Color x Strength
+    (svm/closure.h principled_bsdf_emission). Specular, metal, glass, coat, sheen and subsurface
+    are not rendered: when any of them is active the user is told."""
+    base = np.clip(reader.rgb(node, compat.principled_socket(node, "base_color")), 0.0, 1.0)
+    layers = {}
+    for key in ("metallic", "transmission", "specular", "coat", "sheen", "subsurface"):
+        socket = compat.principled_socket(node, key)
+        layers[key] = reader.scalar(node, socket) if socket is not None else 0.0
+    active = [k for k, v in layers.items() if v > 0.0]
+    if active:
+        reader.warn(node, "Principled BSDF is rendered as its diffuse layer only; "
+                          f"ignored: {', '.join(active)}")
+    alpha_socket = compat.principled_socket(node, "alpha")
+    if alpha_socket is not None and reader.scalar(node, alpha_socket) < 1.0:
+        reader.warn(node, "Alpha < 1 is not supported; rendered opaque")
+    albedo = base * (1.0 - np.clip(layers["metallic"], 0, 1)) * (1.0 - np.clip(layers["transmission"], 0, 1))
+    emission = (reader.rgb(node, compat.principled_socket(node, "emission_color"))
+                * reader.scalar(node, compat.principled_socket(node, "emission_strength")))
+    return _Surface(albedo=albedo, emission=emission)
+
+
+# ----------------------------------------------------------------------------------------------
+# Volumes
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class _Volume:
+    """Sums of coefficients; g_weighted = sum of sigma_s-weight x g, for the mean cosine."""
+
+    sigma_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    sigma_a: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    g_terms: list = field(default_factory=list)  # (scatter weight, g)
+
+    def scaled(self, w: float) -> "_Volume":
+        return _Volume(self.sigma_s * w, self.sigma_a * w, self.emission * w,
+                       [(s * w, g) for s, g in self.g_terms])
+
+    def __add__(self, other: "_Volume") -> "_Volume":
+        return _Volume(self.sigma_s + other.sigma_s, self.sigma_a + other.sigma_a,
+                       self.emission + other.emission, self.g_terms + other.g_terms)
+
+    @property
+    def is_empty(self) -> bool:
+        return not (np.any(self.sigma_s) or np.any(self.sigma_a) or np.any(self.emission))
+
+
+def _scatter_term(sigma_s: np.ndarray, g: float) -> list:
+    # Cycles clamps g per closure (kernel/closure/volume_henyey_greenstein.h).
+    return [(float(np.mean(sigma_s)), float(np.clip(g, -HG_G_LIMIT, HG_G_LIMIT)))]
+
+
+def _volume_from(reader: _NodeReader, socket) -> _Volume:
+    source = _source_socket(socket)
+    if source is None:
+        return _Volume()
+    node = source.node
+    if node.mute:
+        return _Volume()
+    kind = node.type
+    if kind == "PRINCIPLED_VOLUME":
+        # svm/closure.h svm_node_principled_volume: rho = max(Density, 0);
+        # sigma_s = C rho; sigma_a = rho max(1 - C, 0) max(1 - max(sqrt(A), 0), 0);
+        # emission (per unit length) = Strength x Emission Color, NOT multiplied by density.
+        color = reader.rgb(node, "Color")
+        density = max(reader.scalar(node, "Density"), 0.0)
+        absorption_color = np.maximum(np.sqrt(np.maximum(reader.rgb(node, "Absorption Color"), 0.0)), 0.0)
+        sigma_s = color * density
+        sigma_a = density * np.maximum(1.0 - color, 0.0) * np.maximum(1.0 - absorption_color, 0.0)
+        emission = reader.scalar(node, "Emission Strength") * reader.rgb(node, "Emission Color")
+        if reader.scalar(node, "Blackbody Intensity") > 0.0:
+            reader.warn(node, "blackbody emission is not supported; ignored")
+        for attribute in ("Density Attribute", "Color Attribute", "Temperature Attribute"):
+            socket_attr = node.inputs.get(attribute)
+            if socket_attr is not None and socket_attr.is_linked:
+                reader.warn(node, f"'{attribute}' is ignored: VolPath media are homogeneous")
+        if density == 0.0:
+            sigma_s, sigma_a = np.zeros(3), np.zeros(3)
+        return _Volume(sigma_s, sigma_a, emission, _scatter_term(sigma_s, reader.scalar(node, "Anisotropy")))
+    if kind == "VOLUME_SCATTER":
+        # svm_node_closure_volume: weight = Color x max(Density, 0); scattering only.
+        phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
+        if phase != "HENYEY_GREENSTEIN":
+            reader.warn(node, f"phase function {phase} is not supported; rendered as Henyey-Greenstein")
+        sigma_s = reader.rgb(node, "Color") * max(reader.scalar(node, "Density"), 0.0)
+        return _Volume(sigma_s=sigma_s, g_terms=_scatter_term(sigma_s, reader.scalar(node, "Anisotropy")))
+    if kind == "VOLUME_ABSORPTION":
+        # svm_node_closure_volume: extinction weight = (1 - Color) x max(Density, 0).
+        sigma_a = (1.0 - reader.rgb(node, "Color")) * max(reader.scalar(node, "Density"), 0.0)
+        return _Volume(sigma_a=sigma_a)
+    if kind == "VOLUME_COEFFICIENTS":
+        # svm_node_volume_coefficients: sigma_t = scatter + absorption, emission as given.
+        phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
+        if phase != "HENYEY_GREENSTEIN":
+            reader.warn(node, f"phase function {phase} is not supported; rendered as Henyey-Greenstein")
+        sigma_s = reader.rgb(node, "Scatter Coefficients")
+        return _Volume(sigma_s=sigma_s, sigma_a=reader.rgb(node, "Absorption Coefficients"),
+                       emission=reader.rgb(node, "Emission Coefficients"),
+                       g_terms=_scatter_term(sigma_s, reader.scalar(node, "Anisotropy")))
+    if kind == "EMISSION":
+        return _Volume(emission=reader.rgb(node, "Color") * reader.scalar(node, "Strength"))
+    if kind == "ADD_SHADER":
+        return _volume_from(reader, node.inputs[0]) + _volume_from(reader, node.inputs[1])
+    if kind == "MIX_SHADER":
+        f = _mix_factor(reader, node)
+        return (_volume_from(reader, node.inputs[1]).scaled(1.0 - f)
+                + _volume_from(reader, node.inputs[2]).scaled(f))
+    reader.warn(node, "unsupported volume shader; it contributes no medium")
+    return _Volume()
+
+
+def _medium_from(name: str, volume: _Volume, reader: _NodeReader, node) -> vp.Medium:
+    weights = np.array([w for w, _ in volume.g_terms], dtype=np.float64)
+    gs = np.array([g for _, g in volume.g_terms], dtype=np.float64)
+    g = float(np.sum(weights * gs) / np.sum(weights)) if weights.size and np.sum(weights) > 0 else 0.0
+    scattering = weights > 0
+    if np.count_nonzero(scattering) > 1 and np.ptp(gs[scattering]) > 1e-6:
+        reader.warn(node, f"scattering closures with different anisotropies are combined into one "
+                          f"Henyey-Greenstein lobe with the weighted mean g = {g:.3f}")
+    return vp.Medium(name=name, sigma_s=volume.sigma_s, sigma_a=volume.sigma_a, g=g, emission=volume.emission)
+
+
+# ----------------------------------------------------------------------------------------------
+# Material table
+# ----------------------------------------------------------------------------------------------
+class MaterialTable:
+    """Scene.materials and Scene.media, one entry per Blender material (and one default)."""
+
+    def __init__(self, reporter: Reporter):
+        self.reporter = reporter
+        self.materials: list[vp.Material] = []
+        self.media: list[vp.Medium] = []
+        self._index: dict = {}
+
+    def index_of(self, material) -> int:
+        """Index into `materials` for a Blender material (None: Cycles' default grey diffuse)."""
+        key = None if material is None else material.name_full
+        if key not in self._index:
+            self._index[key] = len(self.materials)
+            self.materials.append(self._convert(material))
+        return self._index[key]
+
+    def _convert(self, material) -> vp.Material:
+        if material is None:
+            return vp.Material(name="(no material)", base_color=np.full(3, DEFAULT_ALBEDO))
+        name = material.name_full
+        tree = compat.material_node_tree(material)
+        if tree is None:  # not node-based (Blender < 5): Cycles uses the viewport diffuse colour
+            return vp.Material(name=name, base_color=np.array(material.diffuse_color[:3]))
+        reader = _NodeReader(f"material '{name}'", self.reporter)
+        output = tree.get_output_node("CYCLES")
+        if output is None:
+            self.reporter.warn(f"material '{name}': no active Material Output node; rendered black (as Cycles)")
+            return vp.Material(name=name, base_color=np.zeros(3))
+        surface_socket, volume_socket = output.inputs["Surface"], output.inputs["Volume"]
+        has_surface = _source_socket(surface_socket) is not None
+        volume = _volume_from(reader, volume_socket)
+        has_volume = _source_socket(volume_socket) is not None
+        medium = -1
+        if has_volume and not volume.is_empty:
+            self.media.append(_medium_from(name, volume, reader, output))
+            medium = len(self.media) - 1
+        if has_volume and not has_surface:
+            # Volume only: an invisible boundary (scene/shader.cpp sets SD_HAS_ONLY_VOLUME, and
+            # kernel/integrator/surface_shader.h makes such surfaces fully transparent).
+            return vp.Material(name=name, surface="null", base_color=np.zeros(3), medium=medium)
+        # Nothing connected to Surface (and no volume) is an opaque black surface in Cycles.
+        surface = _surface_from(reader, surface_socket)
+        return vp.Material(name=name, surface="diffuse", base_color=surface.albedo,
+                           emission=surface.emission, medium=medium)
+
+
+def export_world(world, table: MaterialTable) -> vp.World:
+    """World background radiance (Background colour x strength) and the world volume."""
+    if world is None:
+        return vp.World()
+    tree = compat.world_node_tree(world)
+    if tree is None:
+        return vp.World(background=np.array(world.color[:3]))
+    reporter = table.reporter
+    reader = _NodeReader(f"world '{world.name_full}'", reporter)
+    output = tree.get_output_node("CYCLES")
+    if output is None:
+        reporter.warn(f"world '{world.name_full}': no active World Output node; black background")
+        return vp.World()
+    background = np.zeros(3)
+    source = _source_socket(output.inputs["Surface"])
+    if source is not None and not source.node.mute:
+        node = source.node
+        if node.type == "BACKGROUND":
+            # Background radiance = colour x strength (kernel/closure/emissive.h background_setup).
+            background = reader.rgb(node, "Color") * reader.scalar(node, "Strength")
+        else:
+            reader.warn(node, "unsupported world surface shader; black background")
+    medium = -1
+    volume = _volume_from(reader, output.inputs["Volume"])
+    if not volume.is_empty:
+        table.media.append(_medium_from(f"world '{world.name_full}'", volume, reader, output))
+        medium = len(table.media) - 1
+    return vp.World(background=background, medium=medium)
