@@ -1,0 +1,213 @@
+"""Render a Blender scene with Cycles under settings matched to VolPath's, then restore the user's.
+
+Matched means: CPU, no denoising, no adaptive sampling, no clamping, no light-threshold
+termination, no path guiding, the bounce limits of VolPath's RenderSettings, the same resolution,
+camera and pixel filter (both engines read them from the same .blend), unbiased volume rendering
+(Cycles 5.0's default null-scattering path, `volume_biased` off) and scene-linear float output.
+Each run is written to an uncompressed 32-bit EXR in a scratch folder and read back.
+"""
+from __future__ import annotations
+
+import contextlib
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Iterator, Optional
+
+import bpy
+import numpy as np
+
+# Cycles' largest sample count: used with a time limit for equal-time runs.
+CYCLES_MAX_SAMPLES = 1 << 24
+
+
+class CyclesUnavailable(RuntimeError):
+    """Cycles is not registered in this Blender (disabled add-on or a build without it)."""
+
+
+def cycles_available() -> bool:
+    # The engine enum is dynamic (its RNA lists only built-in engines): look at the registered
+    # engine classes and at the settings Cycles adds to the scene.
+    registered = {getattr(engine, "bl_idname", None) for engine in bpy.types.RenderEngine.__subclasses__()}
+    return "CYCLES" in registered and "cycles" in bpy.types.Scene.bl_rna.properties
+
+
+def require_cycles(scene) -> None:
+    if not cycles_available():
+        raise CyclesUnavailable("Cycles is not available in this Blender: enable the Cycles add-on "
+                                "(Preferences > Add-ons > Cycles Render Engine) to compare with it")
+
+
+class SettingsSnapshot:
+    """Set attributes on Blender data while remembering the old values; restore() undoes all."""
+
+    def __init__(self):
+        self._saved: list = []
+
+    def set(self, owner, attribute: str, value) -> None:
+        if not hasattr(owner, attribute):
+            return  # older/newer Blender without this setting: nothing to match
+        self._saved.append((owner, attribute, getattr(owner, attribute)))
+        setattr(owner, attribute, value)
+
+    def restore(self) -> None:
+        for owner, attribute, value in reversed(self._saved):
+            try:
+                setattr(owner, attribute, value)
+            except (AttributeError, TypeError, ReferenceError):
+                pass  # the data block went away; nothing left to restore
+        self._saved.clear()
+
+
+@dataclass
+class BounceLimits:
+    """VolPath's bounce limits (Cycles' meanings, see volpath_native.scene.RenderSettings)."""
+
+    max_bounces: int = 12
+    diffuse_bounces: int = 4
+    glossy_bounces: int = 4
+    transmission_bounces: int = 12
+    volume_bounces: int = 0
+    transparent_bounces: int = 8
+
+    @classmethod
+    def from_settings(cls, settings) -> "BounceLimits":
+        return cls(**{name: int(getattr(settings, name)) for name in cls.__dataclass_fields__})
+
+
+@contextlib.contextmanager
+def matched_settings(scene, bounces: BounceLimits, resolution: Optional[tuple] = None) -> Iterator[SettingsSnapshot]:
+    """Configure `scene` for a Cycles render matched to VolPath; the user's settings come back
+    on exit, also after an error."""
+    require_cycles(scene)
+    snapshot = SettingsSnapshot()
+    try:
+        render, cycles = scene.render, scene.cycles
+        snapshot.set(render, "engine", "CYCLES")
+        snapshot.set(cycles, "device", "CPU")
+        snapshot.set(cycles, "use_denoising", False)
+        snapshot.set(cycles, "use_adaptive_sampling", False)
+        snapshot.set(cycles, "sample_clamp_direct", 0.0)
+        snapshot.set(cycles, "sample_clamp_indirect", 0.0)
+        # 0 disables probabilistic light-sample termination (unbiased either way, but noisier).
+        snapshot.set(cycles, "light_sampling_threshold", 0.0)
+        snapshot.set(cycles, "use_guiding", False)
+        snapshot.set(cycles, "use_animated_seed", False)
+        snapshot.set(cycles, "use_layer_samples", "IGNORE")
+        snapshot.set(cycles, "use_sample_subset", False)
+        # Cycles 5.0: unbiased null-scattering volumes (True would be ray marching, biased).
+        snapshot.set(cycles, "volume_biased", False)
+        snapshot.set(cycles, "min_light_bounces", 0)
+        snapshot.set(cycles, "min_transparent_bounces", 0)
+        snapshot.set(cycles, "max_bounces", bounces.max_bounces)
+        snapshot.set(cycles, "diffuse_bounces", bounces.diffuse_bounces)
+        snapshot.set(cycles, "glossy_bounces", bounces.glossy_bounces)
+        snapshot.set(cycles, "transmission_bounces", bounces.transmission_bounces)
+        snapshot.set(cycles, "volume_bounces", bounces.volume_bounces)
+        snapshot.set(cycles, "transparent_max_bounces", bounces.transparent_bounces)
+        snapshot.set(render, "use_persistent_data", False)
+        snapshot.set(render, "film_transparent", False)
+        snapshot.set(render, "use_compositing", False)
+        snapshot.set(render, "use_sequencer", False)
+        if resolution is not None:
+            snapshot.set(render, "resolution_x", int(resolution[0]))
+            snapshot.set(render, "resolution_y", int(resolution[1]))
+            snapshot.set(render, "resolution_percentage", 100)
+        settings = render.image_settings
+        snapshot.set(settings, "file_format", "OPEN_EXR")
+        snapshot.set(settings, "color_mode", "RGBA")
+        snapshot.set(settings, "color_depth", "32")
+        snapshot.set(settings, "exr_codec", "NONE")
+        snapshot.set(render, "use_file_extension", True)
+        snapshot.set(render, "filepath", render.filepath)
+        yield snapshot
+    finally:
+        snapshot.restore()
+
+
+@dataclass
+class CyclesRun:
+    image: np.ndarray   # (H, W, 4) float32, row 0 = top
+    samples: int
+    seconds: float      # wall clock of the whole render call (sync + render + write)
+    render_seconds: float  # Cycles' own render time (metadata), 0 if unknown
+
+
+def render_once(scene, *, samples: int, seed: int, time_limit: float = 0.0,
+                scratch: Optional[Path] = None) -> CyclesRun:
+    """One Cycles render of `scene` (already inside matched_settings) to scene-linear pixels."""
+    from volpath_native import imageio
+
+    cycles = scene.cycles
+    cycles.samples = int(samples)
+    cycles.seed = int(seed)
+    cycles.time_limit = float(time_limit)
+    with contextlib.ExitStack() as stack:
+        folder = Path(scratch) if scratch else Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="volpath_cycles_")))
+        path = folder / f"cycles_seed{seed}.exr"
+        scene.render.filepath = str(path)
+        start = time.perf_counter()
+        result = bpy.ops.render.render(write_still=True, scene=scene.name)
+        seconds = time.perf_counter() - start
+        if "FINISHED" not in result or not path.exists():
+            raise RuntimeError(f"Cycles render failed for scene '{scene.name}' ({result})")
+        image = imageio.read_exr(path)
+        metadata = _exr_metadata(path)
+    achieved = _metadata_number(metadata, ".samples", default=samples if not time_limit else 0)
+    render_seconds = _metadata_seconds(metadata, ".render_time")
+    if image.shape[2] == 3:
+        image = np.concatenate([image, np.ones(image.shape[:2] + (1,), np.float32)], axis=2)
+    return CyclesRun(image=image, samples=int(achieved), seconds=seconds, render_seconds=render_seconds)
+
+
+def render_runs(scene, *, runs: int, samples: int, base_seed: int, bounces: BounceLimits,
+                time_limit: float = 0.0, resolution: Optional[tuple] = None,
+                progress: Optional[Callable[[int, int], None]] = None) -> list:
+    """`runs` independent Cycles renders (seeds base_seed, base_seed + 1, ...)."""
+    results = []
+    with matched_settings(scene, bounces, resolution):
+        for k in range(runs):
+            results.append(render_once(scene, samples=samples, seed=base_seed + k, time_limit=time_limit))
+            if progress:
+                progress(k + 1, runs)
+    return results
+
+
+def _exr_metadata(path) -> dict:
+    try:
+        import OpenImageIO as oiio
+    except ImportError:
+        return {}
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        return {}
+    try:
+        return {attribute.name: attribute.value for attribute in inp.spec().extra_attribs}
+    finally:
+        inp.close()
+
+
+def _metadata_number(metadata: dict, suffix: str, default: int) -> int:
+    """Cycles stamps 'cycles.<view layer>.samples' into the render result."""
+    for name, value in metadata.items():
+        if name.startswith("cycles.") and name.endswith(suffix):
+            try:
+                return int(value)
+            except (TypeError, ValueError):
+                break
+    return default
+
+
+def _metadata_seconds(metadata: dict, suffix: str) -> float:
+    """'MM:SS.cc' or 'HH:MM:SS.cc' -> seconds."""
+    for name, value in metadata.items():
+        if name.startswith("cycles.") and name.endswith(suffix):
+            try:
+                seconds = 0.0
+                for part in str(value).split(":"):
+                    seconds = seconds * 60 + float(part)
+                return seconds
+            except ValueError:
+                break
+    return 0.0

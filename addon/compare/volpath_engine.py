@@ -1,0 +1,89 @@
+"""Render a Blender scene with VolPath's renderer directly (export once, render K seeds).
+
+Going through export_scene + volpath_native.render (not bpy.ops.render.render) gives the
+comparison the renderer's own sample counts and timings, and lets equal-time runs stop on a clock.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Callable, Optional
+
+import bpy
+import numpy as np
+
+from .cycles_engine import SettingsSnapshot
+
+# VolPath renders progressively; an equal-time run asks for "as many as fit" and stops on the clock.
+EQUAL_TIME_SAMPLE_CAP = 1 << 20
+
+
+@dataclass
+class VolPathRun:
+    image: np.ndarray   # (H, W, 4) float32, row 0 = top
+    samples: int
+    seconds: float      # wall clock of the render call
+    render_seconds: float  # the renderer's own timing
+    variance: Optional[np.ndarray] = None  # the renderer's own per-pixel variance of the mean
+
+
+def export(scene, resolution: Optional[tuple] = None):
+    """The scene as VolPath's native model (+ exporter warnings), at an optional resolution."""
+    from ..export import export_scene  # the add-on's exporter; relative: works as an extension too
+
+    snapshot = SettingsSnapshot()
+    try:
+        if resolution is not None:
+            snapshot.set(scene.render, "resolution_x", int(resolution[0]))
+            snapshot.set(scene.render, "resolution_y", int(resolution[1]))
+            snapshot.set(scene.render, "resolution_percentage", 100)
+        view_layer = scene.view_layers[0] if scene.view_layers else None
+        if bpy.context.scene is scene:
+            depsgraph = bpy.context.evaluated_depsgraph_get()
+        else:
+            depsgraph = scene.evaluated_depsgraph_get(view_layer)
+        depsgraph.update()
+        native_scene, warnings = export_scene(depsgraph)
+    finally:
+        snapshot.restore()
+    return native_scene, list(warnings)
+
+
+def render_runs(native_scene, *, runs: int, samples: int, base_seed: int, time_limit: float = 0.0,
+                progress: Optional[Callable[[int, int], None]] = None,
+                cancel: Optional[Callable[[], bool]] = None) -> list:
+    """`runs` independent renders of the exported scene with seeds base_seed, base_seed + 1, ...
+
+    time_limit > 0: each run renders until that many seconds have passed (equal-time mode).
+    """
+    from volpath_native.render import render
+
+    settings = native_scene.settings
+    original = (settings.samples, settings.seed)
+    results = []
+    try:
+        for k in range(runs):
+            settings.seed = int(base_seed + k)
+            settings.samples = EQUAL_TIME_SAMPLE_CAP if time_limit > 0 else int(samples)
+            start = time.perf_counter()
+            deadline = start + time_limit if time_limit > 0 else None
+
+            def should_stop() -> bool:
+                if cancel is not None and cancel():
+                    return True
+                return deadline is not None and time.perf_counter() >= deadline
+
+            result = render(native_scene, cancel=should_stop)
+            seconds = time.perf_counter() - start
+            if cancel is not None and cancel():
+                raise InterruptedError("comparison cancelled")
+            if result.samples < 1:
+                raise RuntimeError("VolPath produced no samples within the time limit; give it more time")
+            results.append(VolPathRun(image=np.asarray(result.image, np.float32), samples=int(result.samples),
+                                      seconds=seconds, render_seconds=float(result.seconds),
+                                      variance=getattr(result, "variance", None)))
+            if progress:
+                progress(k + 1, runs)
+    finally:
+        settings.samples, settings.seed = original
+    return results

@@ -1,0 +1,126 @@
+"""The comparison statistics: calibrated when the engines agree, sensitive when one is biased."""
+import numpy as np
+import pytest
+
+from addon.compare import metrics
+
+H, W = 24, 24
+
+
+@pytest.mark.parametrize("t, dof, expected", [
+    (12.706, 1, 0.05), (63.657, 1, 0.01), (4.303, 2, 0.05), (4.604, 4, 0.01), (2.228, 10, 0.05),
+    (3.169, 10, 0.01), (2.042, 30, 0.05), (2.5758, 1000, 0.0102), (0.0, 5, 1.0),
+])
+def test_student_t_matches_table(t, dof, expected):
+    p = float(metrics.student_t_two_sided_p(t, dof))
+    assert p == pytest.approx(expected, rel=2e-3, abs=1e-4)
+
+
+def test_student_t_is_symmetric_and_monotone():
+    t = np.linspace(-8, 8, 81)
+    p = metrics.student_t_two_sided_p(t, 7)
+    np.testing.assert_allclose(p, p[::-1], rtol=1e-12)
+    assert np.all(np.diff(p[40:]) < 0)
+
+
+def _runs(rng, k, mean_image, samples_per_run=16):
+    """k runs, each the mean of `samples_per_run` exponential samples per pixel (a skewed,
+    renderer-like distribution) with the given per-pixel mean."""
+    samples = rng.exponential(1.0, size=(k, samples_per_run) + mean_image.shape)
+    return list(samples.mean(axis=1) * mean_image)
+
+
+def _scene_like_image(rng):
+    base = np.linspace(0.05, 2.0, H * W).reshape(H, W, 1)
+    return base * np.array([1.0, 0.7, 0.4]) + 0.01
+
+
+def test_pixel_test_false_rejection_rate_is_calibrated():
+    """With both engines unbiased, the image-level test rejects about alpha of the time. With the
+    normal distribution instead of Student's t (variances from 6 runs) it would reject ~always."""
+    rng = np.random.default_rng(1)
+    truth = _scene_like_image(rng)
+    alpha, trials = 0.2, 120
+    rejections = 0
+    for _ in range(trials):
+        a = metrics.run_statistics(_runs(rng, 6, truth))
+        b = metrics.run_statistics(_runs(rng, 6, truth))
+        rejections += not metrics.pixel_t_test(a, b, alpha).passed
+    # Binomial(120, 0.2): mean 24, sd 4.4; accept 5 sd either way (Welch's dof is approximate).
+    assert 2 <= rejections <= 46, rejections
+
+
+def test_pixel_test_passes_unbiased_and_flags_biased_image():
+    rng = np.random.default_rng(2)
+    truth = _scene_like_image(rng)
+    a = metrics.run_statistics(_runs(rng, 8, truth, 64))
+    b = metrics.run_statistics(_runs(rng, 8, truth, 64))
+    assert metrics.pixel_t_test(a, b).passed
+    # 60% too bright in a 4x4 corner: a localised estimator bug.
+    biased = truth.copy()
+    biased[:4, :4] *= 1.6
+    c = metrics.run_statistics(_runs(rng, 8, biased, 64))
+    result = metrics.pixel_t_test(c, b)
+    assert not result.passed
+    assert result.failed[:4, :4].sum() >= 8 and result.failed[4:, 4:].sum() == 0
+    assert result.worst()["row"] < 4 and result.worst()["column"] < 4
+
+
+def test_mean_test_detects_small_global_bias():
+    rng = np.random.default_rng(3)
+    truth = _scene_like_image(rng)
+    a = metrics.run_statistics(_runs(rng, 8, truth, 64))
+    b = metrics.run_statistics(_runs(rng, 8, truth, 64))
+    same = metrics.mean_test(a, b)
+    assert same.passed
+    assert np.all(np.abs(same.ratio - 1) <= same.ratio_tolerance)
+    c = metrics.run_statistics(_runs(rng, 8, truth * 1.03, 64))  # 3% too bright everywhere
+    biased = metrics.mean_test(c, b)
+    assert not biased.passed
+    assert np.all(biased.ratio > 1.01)
+
+
+def test_zero_variance_pixels():
+    """Constant pixels (e.g. background only) agree when equal and disagree when not."""
+    constant = np.full((4, 4, 3), 0.5)
+    a = metrics.run_statistics([constant, constant, constant])
+    assert metrics.pixel_t_test(a, a).passed
+    b = metrics.run_statistics([constant * 1.01] * 3)
+    assert not metrics.pixel_t_test(a, b).passed
+
+
+def test_relmse_and_relative_difference():
+    ref = np.full((2, 2, 3), 1.0)
+    assert metrics.relmse(ref, ref) == 0.0
+    assert metrics.relmse(ref * 1.1, ref) == pytest.approx(0.01 / (1 + metrics.RELMSE_EPSILON))
+    diff = metrics.signed_relative_difference(ref * 1.1, ref)
+    np.testing.assert_allclose(diff, 0.1 / 1.05)
+    assert np.all(metrics.signed_relative_difference(ref, ref * 1.1) < 0)
+    with pytest.raises(ValueError):
+        metrics.relmse(ref, np.ones((3, 2, 3)))
+
+
+def test_false_colour_and_scale():
+    colours = metrics.false_colour(np.array([[-1.0, 0.0, 1.0, 5.0]]), 1.0)
+    assert colours.shape == (1, 4, 3)
+    assert colours[0, 0, 2] > colours[0, 0, 0]          # negative: blue
+    assert colours[0, 2, 0] > colours[0, 2, 2]          # positive: red
+    np.testing.assert_allclose(colours[0, 1], [0.97, 0.97, 0.97])
+    np.testing.assert_allclose(colours[0, 3], colours[0, 2])  # clipped at the scale
+    assert metrics.difference_scale(np.full((4, 4), 0.03)) == 0.05
+    assert metrics.difference_scale(np.zeros((4, 4))) == 0.01
+
+
+def test_contact_sheet_png(tmp_path):
+    pytest.importorskip("OpenImageIO")
+    from addon.compare import sheet
+    from volpath_native import imageio
+
+    rng = np.random.default_rng(4)
+    a, b = rng.random((16, 20, 3)), rng.random((16, 20, 3))
+    rows = [[sheet.render_panel("A", a, 0.0, "caption"), sheet.render_panel("B", b, 0.0),
+             sheet.difference_panel("A - B", metrics.signed_relative_difference(a, b))]]
+    path = sheet.write_contact_sheet(tmp_path / "sheet.png", rows, "title")
+    pixels = imageio.read_exr(path)
+    assert pixels.shape[1] >= 3 * 256 and pixels.shape[0] > 256
+    assert pixels.max() > 0.5
