@@ -23,11 +23,11 @@ test: venv
 	$(PY) -m pytest -q tests
 
 extension: venv
-	$(PY) -m addon.build_extension build
+	$(PY) addon/build_extension.py build
 
 install-blender: venv
 	@test -n "$(BLENDER)" || { echo "usage: make install-blender BLENDER=/path/to/blender"; exit 2; }
-	$(PY) -m addon.build_extension install --blender "$(BLENDER)"
+	$(PY) addon/build_extension.py install --blender "$(BLENDER)"
 
 bench: venv
 	$(PY) tests/benchmarks/run_all.py
