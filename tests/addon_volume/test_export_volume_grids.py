@@ -1,0 +1,191 @@
+"""Volume object export: .vdb written with openvdb -> bpy Volume object -> dense grids -> GridMedium."""
+import math
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from addon import export_volume_grids as evg  # noqa: E402
+from volpath_native.grid_medium import principled_volume_coefficients  # noqa: E402
+
+VOXEL = 0.1
+INDEX_ORIGIN = (5, -3, 2)  # where the written array starts in OpenVDB index space
+
+
+@pytest.fixture(scope="module")
+def openvdb():
+    return evg.import_openvdb()
+
+
+def procedural_density(shape=(12, 10, 8)):
+    """Smooth blob with a zero border (zeros stay inactive: the active box is the non-zero part)."""
+    x, y, z = np.meshgrid(*[np.linspace(-1, 1, n) for n in shape], indexing="ij")
+    density = np.clip(1.0 - (x ** 2 + y ** 2 + z ** 2), 0.0, None) * (1.5 + x)
+    density[0], density[-1] = 0.0, 0.0
+    return density.astype(np.float32)
+
+
+def write_vdb(openvdb, path, grids):
+    openvdb.write(str(path), grids=grids)
+    return path
+
+
+def float_grid(openvdb, name, array, origin=INDEX_ORIGIN):
+    grid = openvdb.FloatGrid()
+    grid.name = name
+    grid.copyFromArray(array, ijk=origin)
+    grid.transform = openvdb.createLinearTransform(voxelSize=VOXEL)
+    return grid
+
+
+def volume_object(path, name="Smoke", location=(1.0, 2.0, 3.0), rotation=(0.3, 0.0, 0.5), scale=(2.0, 1.0, 1.5)):
+    volume = bpy.data.volumes.new(name)
+    volume.filepath = str(path)
+    obj = bpy.data.objects.new(name, volume)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.location, obj.rotation_euler, obj.scale = location, rotation, scale
+    return obj
+
+
+def principled_material(density=2.0, color=(0.8, 0.6, 0.4, 1.0), color_attribute=""):
+    material = bpy.data.materials.new("SmokeMaterial")
+    tree = material.node_tree if material.node_tree is not None else None
+    if tree is None:
+        material.use_nodes = True
+        tree = material.node_tree
+    for node in list(tree.nodes):
+        tree.nodes.remove(node)
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    principled = tree.nodes.new("ShaderNodeVolumePrincipled")
+    principled.inputs["Density"].default_value = density
+    principled.inputs["Color"].default_value = color
+    principled.inputs["Color Attribute"].default_value = color_attribute
+    tree.links.new(principled.outputs["Volume"], output.inputs["Volume"])
+    return material
+
+
+@pytest.fixture()
+def clean_scene():
+    yield
+    for obj in list(bpy.data.objects):
+        if obj.type == "VOLUME":
+            bpy.data.objects.remove(obj)
+    for volume in list(bpy.data.volumes):
+        bpy.data.volumes.remove(volume)
+
+
+def evaluated(obj):
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    return obj.evaluated_get(depsgraph), depsgraph
+
+
+def test_density_grid_round_trips_with_transform(openvdb, tmp_path, clean_scene):
+    density = procedural_density()
+    path = write_vdb(openvdb, tmp_path / "smoke.vdb", [float_grid(openvdb, "density", density)])
+    obj = volume_object(path)
+    warnings = []
+    exported = evg.export_volume_object(evaluated(obj)[0], warnings)
+    assert exported is not None, warnings
+    grid = exported.grids["density"]
+
+    active = np.argwhere(density != 0)
+    lo, hi = active.min(axis=0), active.max(axis=0)
+    np.testing.assert_array_equal(grid.data, density[lo[0]:hi[0] + 1, lo[1]:hi[1] + 1, lo[2]:hi[2] + 1])
+    assert grid.index_origin == tuple(int(v) for v in np.add(INDEX_ORIGIN, lo))
+
+    matrix_world = np.array(obj.matrix_world)
+    some_voxel = np.array([2, 3, 1])
+    object_position = VOXEL * (some_voxel + np.add(INDEX_ORIGIN, lo))
+    expected_world = matrix_world @ np.append(object_position, 1.0)
+    np.testing.assert_allclose(grid.index_to_world @ np.append(some_voxel, 1.0), expected_world, atol=1e-6)
+    # Cycles' object_volume_density for object-space volumes.
+    expected_factor = 1.0 / np.linalg.norm(matrix_world[:3, :3] @ (np.ones(3) / math.sqrt(3)))
+    assert exported.density_factor == pytest.approx(expected_factor)
+
+
+def test_grid_medium_uses_principled_volume_and_object_density_factor(openvdb, tmp_path, clean_scene):
+    density = procedural_density()
+    path = write_vdb(openvdb, tmp_path / "smoke.vdb", [float_grid(openvdb, "density", density)])
+    obj = volume_object(path)
+    obj.data.materials.append(principled_material(density=2.0))
+    warnings = []
+    exported = evg.export_volume_object(evaluated(obj)[0], warnings)
+    medium = evg.grid_medium_from_volume(exported, warnings)
+    assert medium is not None and not warnings, warnings
+    sigma_s, sigma_a = principled_volume_coefficients((0.8, 0.6, 0.4), 2.0, 0.0, exported.density_factor)
+    np.testing.assert_allclose(medium.sigma_s, sigma_s, rtol=1e-6)
+    np.testing.assert_allclose(medium.sigma_a, sigma_a, rtol=1e-6)
+    grid = exported.grids["density"]
+    voxel = np.array([4, 5, 3])
+    world = (grid.index_to_world @ np.append(voxel, 1.0))[:3]
+    assert medium.density_at(world[None])[0] == pytest.approx(grid.data[tuple(voxel)], rel=1e-5)
+
+
+def test_color_grid_drives_scattering_colour(openvdb, tmp_path, clean_scene):
+    density = procedural_density()
+    color = np.zeros(density.shape + (3,), np.float32)
+    color[density != 0] = (0.25, 0.5, 1.0)
+    color_grid = openvdb.Vec3SGrid()
+    color_grid.name = "color"
+    color_grid.copyFromArray(color, ijk=INDEX_ORIGIN)
+    color_grid.transform = openvdb.createLinearTransform(voxelSize=VOXEL)
+    path = write_vdb(openvdb, tmp_path / "smoke.vdb", [float_grid(openvdb, "density", density), color_grid])
+    obj = volume_object(path)
+    obj.data.materials.append(principled_material(density=1.0, color=(1, 1, 1, 1), color_attribute="color"))
+    warnings = []
+    exported = evg.export_volume_object(evaluated(obj)[0], warnings)
+    medium = evg.grid_medium_from_volume(exported, warnings)
+    assert medium is not None and not warnings, warnings
+    grid = exported.grids["density"]
+    voxel = np.array([4, 5, 3])
+    world = (grid.index_to_world @ np.append(voxel, 1.0))[:3][None]
+    sigma_s, sigma_t, _ = medium.coefficients(world)
+    rho = grid.data[tuple(voxel)] * exported.density_factor
+    np.testing.assert_allclose(sigma_s[0], rho * np.array([0.25, 0.5, 1.0]), rtol=1e-5)
+    np.testing.assert_allclose(sigma_t[0], rho, rtol=1e-5)  # C + (1 - C) = 1 without absorption
+
+
+def test_missing_file_warns_and_skips(tmp_path, clean_scene):
+    obj = volume_object(tmp_path / "does_not_exist.vdb")
+    warnings = []
+    assert evg.export_volume_object(evaluated(obj)[0], warnings) is None
+    assert warnings and "not found" in warnings[0]
+
+
+def test_unsupported_and_empty_grids_warn_and_are_skipped(openvdb, tmp_path, clean_scene):
+    temperature = openvdb.Int32Grid()
+    temperature.name = "temperature"
+    temperature.copyFromArray(np.ones((3, 3, 3), np.int32))
+    empty = openvdb.FloatGrid()
+    empty.name = "flame"
+    path = write_vdb(openvdb, tmp_path / "mixed.vdb",
+                     [float_grid(openvdb, "density", procedural_density()), temperature, empty])
+    obj = volume_object(path)
+    warnings = []
+    exported = evg.export_volume_object(evaluated(obj)[0], warnings)
+    assert set(exported.grids) == {"density"}
+    assert any("temperature" in w and "unsupported" in w for w in warnings), warnings
+    assert any("flame" in w and "empty" in w for w in warnings), warnings
+
+
+def test_volume_without_density_grid_is_skipped_by_the_medium_builder(openvdb, tmp_path, clean_scene):
+    path = write_vdb(openvdb, tmp_path / "heat.vdb", [float_grid(openvdb, "flame", procedural_density())])
+    obj = volume_object(path)
+    warnings = []
+    exported = evg.export_volume_object(evaluated(obj)[0], warnings)
+    assert exported is not None and set(exported.grids) == {"flame"}
+    assert evg.grid_medium_from_volume(exported, warnings) is None
+    assert any("density" in w for w in warnings)
+
+
+def test_depsgraph_export_finds_every_volume_object(openvdb, tmp_path, clean_scene):
+    path = write_vdb(openvdb, tmp_path / "smoke.vdb", [float_grid(openvdb, "density", procedural_density())])
+    volume_object(path, name="A")
+    volume_object(path, name="B", location=(-3, 0, 0))
+    warnings = []
+    exported = evg.export_volume_objects(bpy.context.evaluated_depsgraph_get(), warnings)
+    assert sorted(e.object_name for e in exported) == ["A", "B"], warnings
+    a, b = sorted(exported, key=lambda e: e.object_name)
+    shift = b.grids["density"].index_to_world[:3, 3] - a.grids["density"].index_to_world[:3, 3]
+    np.testing.assert_allclose(shift, [-4.0, -2.0, -3.0], atol=1e-6)
