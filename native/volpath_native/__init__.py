@@ -4,3 +4,4 @@ from .scene import (AreaLight, Camera, Film, Material, Medium, Mesh, PointLight,
 from .scene_io import load_scene, save_scene
 
 __version__ = "0.1.0"
+from .render import RenderResult, render

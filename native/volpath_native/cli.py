@@ -1,0 +1,75 @@
+"""Command line: render a saved .vpscene without Blender.
+
+    python -m volpath_native render SCENE.vpscene -o out.exr [--spp N] [--seed S] [--png out.png]
+        [--threads T] [--batch-size B] [--max-bounces N] [--diffuse-bounces N]
+        [--volume-bounces N] [--transparent-bounces N] [--volume-sampling mis|distance|equiangular]
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .render import render
+from .scene import SceneError
+from .scene_io import load_scene
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="volpath", description="VolPath volumetric path tracer")
+    sub = parser.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("render", help="render a .vpscene file to an EXR image")
+    r.add_argument("scene", help="input .vpscene file")
+    r.add_argument("-o", "--output", required=True, help="output OpenEXR file (scene-linear RGBA)")
+    r.add_argument("--png", help="also write an sRGB 8-bit preview PNG")
+    r.add_argument("--spp", type=int, help="samples per pixel (default: the scene's)")
+    r.add_argument("--seed", type=int, help="random seed (default: the scene's)")
+    r.add_argument("--threads", type=int, help="worker threads (0 = all cores)")
+    r.add_argument("--batch-size", type=int, help="paths per wavefront batch")
+    for name in ("max", "diffuse", "volume", "transparent"):
+        r.add_argument(f"--{name}-bounces", type=int)
+    r.add_argument("--volume-sampling", choices=("mis", "distance", "equiangular"))
+    r.add_argument("--quiet", action="store_true", help="no progress output")
+    return parser
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        scene = load_scene(args.scene)
+    except (OSError, ValueError) as exc:
+        print(f"error: cannot load {args.scene}: {exc}", file=sys.stderr)
+        return 2
+    s = scene.settings
+    overrides = dict(samples=args.spp, seed=args.seed, threads=args.threads, batch_size=args.batch_size,
+                     max_bounces=args.max_bounces, diffuse_bounces=args.diffuse_bounces,
+                     volume_bounces=args.volume_bounces, transparent_bounces=args.transparent_bounces,
+                     volume_sampling=args.volume_sampling)
+    for key, value in overrides.items():
+        if value is not None:
+            setattr(s, key, value)
+
+    def progress(done, total, stats):
+        if not args.quiet:
+            print(f"\r{done}/{total} spp  {stats['seconds']:.1f} s  "
+                  f"{stats['samples_per_second'] / 1e3:.0f} k samples/s  "
+                  f"{stats['rays_per_second'] / 1e6:.2f} M rays/s", end="", file=sys.stderr, flush=True)
+
+    try:
+        result = render(scene, progress=progress)
+    except SceneError as exc:
+        print(f"\nerror: {exc}", file=sys.stderr)
+        return 2
+    if not args.quiet:
+        print(file=sys.stderr)
+    for w in result.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    from .imageio import write_exr, write_png
+    write_exr(args.output, result.image)
+    if args.png:
+        write_png(args.png, result.image)
+    st = result.stats
+    print(f"rendered {result.samples} spp in {result.seconds:.2f} s: "
+          f"{st.get('samples_per_second', 0) / 1e3:.1f} k samples/s, "
+          f"{st.get('vertices_per_second', 0) / 1e6:.2f} M vertices/s, "
+          f"{st.get('rays_per_second', 0) / 1e6:.2f} M rays/s -> {args.output}")
+    return 0

@@ -1,0 +1,61 @@
+"""Pixel filters sampled by importance, as Cycles does (scene/film.cpp builds a 1D filter table
+and the kernel inverts it for x and y separately): every sample lands in exactly one pixel with
+weight 1, so pixels stay statistically independent (needed for per-pixel z-tests)."""
+from __future__ import annotations
+
+import numpy as np
+
+from .scene import Film, SceneError
+
+_TABLE_SIZE = 1024
+
+
+def _blackman_harris(x, width):
+    v = 2.0 * np.pi * (x / width + 0.5)
+    return 0.35875 - 0.48829 * np.cos(v) + 0.14128 * np.cos(2 * v) - 0.01168 * np.cos(3 * v)
+
+
+def _gaussian(x, width):
+    v = x * 6.0 / width
+    return np.exp(-2.0 * v * v)
+
+
+class PixelFilter:
+    """Inverse-CDF sampler of a separable pixel filter; offsets are relative to the pixel centre."""
+
+    def __init__(self, film: Film):
+        width = float(film.filter_width)
+        if not np.isfinite(width) or width <= 0:
+            raise SceneError(f"pixel filter width {film.filter_width} must be positive")
+        kind = film.filter
+        # Cycles widens the filters internally (scene/film.cpp filter_table()).
+        if kind == "blackman-harris":
+            width *= 2.0
+            func = _blackman_harris
+        elif kind == "gaussian":
+            width *= 3.0
+            func = _gaussian
+        elif kind == "box":
+            func = None
+        else:
+            raise SceneError(f"unknown pixel filter '{kind}'")
+        self.support = 0.5 * width
+        xs = np.linspace(-self.support, self.support, _TABLE_SIZE + 1)
+        if func is None:
+            cdf = np.linspace(0.0, 1.0, _TABLE_SIZE + 1)
+        else:
+            mid = 0.5 * (xs[1:] + xs[:-1])
+            w = np.maximum(func(mid, width), 0.0)
+            cdf = np.concatenate([[0.0], np.cumsum(w)])
+            cdf /= cdf[-1]
+        self._xs, self._cdf = xs, cdf
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        """Offsets distributed as the 1D filter profile for uniform u."""
+        return np.interp(u, self._cdf, self._xs)
+
+    def pdf(self, x: np.ndarray) -> np.ndarray:
+        """Normalised 1D density of offsets (for tests)."""
+        dens = np.diff(self._cdf) / np.diff(self._xs)
+        idx = np.clip(np.searchsorted(self._xs, x, side="right") - 1, 0, len(dens) - 1)
+        return np.where(np.abs(x) <= self.support, dens[idx], 0.0)

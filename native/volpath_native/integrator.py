@@ -1,0 +1,405 @@
+"""The wavefront volumetric path tracer.
+
+Paths live in numpy structure-of-arrays; each iteration runs the stages of pbrt-v4's wavefront
+integrator (src/pbrt/wavefront/integrator.cpp) over whole queues of paths at once: closest hit
+(Embree, bulk) -> medium segment (emission, next-event estimation, free-flight sampling) ->
+lamps crossed -> escaped rays -> surface hits (null boundaries, emission, NEE, BSDF sampling) ->
+Russian roulette. Shadow rays are traced in bulk per stage.
+
+Estimators and their references:
+- free flight in chromatic media: one-sample spectral MIS, channel pdf averaged (pbrt-v4
+  media.h / Cycles shade_volume.h); see media.py.
+- direct light in media: a separate NEE vertex per segment whose distance is drawn from
+  equiangular (toward the chosen light) or distance sampling, combined by one-sample MIS with the
+  mixture (balance) pdf (Kulla & Fajardo 2012; Cycles shade_volume.h "volume_integrate_..." with
+  equiangular + distance MIS); light vs phase sampling combined with the power heuristic.
+- light vs BSDF/phase sampling for hittable emitters: power heuristic (Veach 1997; Cycles
+  light/common.h / integrator/mis.h). Both NEE vertices use weights that depend only on the
+  (vertex, direction) pair, so the two estimators sum to the direct light exactly.
+- bounce limits: Cycles' path_state.h: after a scatter the counters grow; exceeding a limit sets
+  "terminate after transparent" (the path still crosses null boundaries and collects emission
+  with MIS, then ends). Russian roulette: survive with min(sqrt(max beta), 1).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from . import media as md
+from .accel import Accelerator
+from .bsdf import lambert_eval, lambert_sample
+from .camera import CameraModel, crop_window
+from .film import PixelFilter
+from .lights import LightSet
+from .phase import hg_eval, hg_sample
+from .sampling import event_dimension, path_keys, uniform
+from .scene import Scene
+
+# Random dimensions within one iteration (see sampling.event_dimension).
+D_CHANNEL, D_DISTANCE, D_MED_SELECT, D_MED_TECH, D_MED_T, D_MED_CHANNEL, D_MED_LU, D_MED_LV, \
+    D_PHASE_U, D_PHASE_V, D_RR, D_SURF_SELECT, D_SURF_LU, D_SURF_LV, D_BSDF_U, D_BSDF_V = range(16)
+
+MAX_VOLUME_BOUNDS = 1024  # Cycles' VOLUME_BOUNDS_MAX: null crossings are not transparent bounces
+
+
+class Cancelled(Exception):
+    pass
+
+
+def _dot(a, b):
+    return np.einsum("ij,ij->i", a, b)
+
+
+def _power_heuristic(a, b):
+    a2, b2 = a * a, b * b
+    return np.where(a2 + b2 > 0, a2 / np.where(a2 + b2 > 0, a2 + b2, 1.0), 0.0)
+
+
+class PathState:
+    """Structure of arrays for the paths still alive."""
+
+    FIELDS = ("pid", "key", "o", "d", "tmax", "beta", "counts", "bounce", "diffuse", "volume",
+              "bounds", "tat", "prev_pdf", "prev_pos", "travelled", "event")
+
+    def __init__(self, **arrays):
+        for k in self.FIELDS:
+            setattr(self, k, arrays[k])
+
+    def __len__(self):
+        return len(self.pid)
+
+    def keep(self, mask):
+        for k in self.FIELDS:
+            setattr(self, k, getattr(self, k)[mask])
+
+
+class Integrator:
+    """Everything prepared once per scene; render_paths() may run in several threads."""
+
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        self.settings = scene.settings
+        self.accel = Accelerator(scene.meshes)
+        self.lights = LightSet(scene, self.accel)
+        self.media = md.MediaTable(scene, self.accel)
+        self.camera = CameraModel(scene.camera, scene.film)
+        self.filter = PixelFilter(scene.film)
+        self.crop = crop_window(scene.film)
+        mats = scene.materials
+        self.mat_null = np.array([m.surface == "null" for m in mats], dtype=bool)
+        self.mat_albedo = np.array([m.base_color for m in mats], dtype=np.float64).reshape(-1, 3)
+        self.mat_emissive = np.array([m.is_emissive and m.surface != "null" for m in mats], dtype=bool)
+        ids = self.accel.material_ids
+        self.tri_null = self.mat_null[ids] if len(mats) else np.zeros(0, bool)
+        self.tri_emissive = self.mat_emissive[ids] if len(mats) else np.zeros(0, bool)
+        self.has_null = bool(self.tri_null.any())
+        self.warnings = self.lights.warnings + self.media.warnings
+        self._camera_stack = None
+        if self.media.n_volumes and scene.camera.projection == "perspective":
+            self._camera_stack = self.media.stack_at(self.camera.position[None, :])[0]
+
+    # -----------------------------------------------------------------------------------------
+    def render_paths(self, pixel: np.ndarray, sample: np.ndarray, cancel=None):
+        """Radiance estimates (N,3) for paths (crop-region pixel index, sample index) and stats."""
+        st = self.settings
+        n = len(pixel)
+        stats = dict(rays=0, shadow_rays=0, vertices=0, paths=n)
+        x0, y0, cw, _ = self.crop
+        keys = path_keys(st.seed, pixel, sample)
+        fx = x0 + (pixel % cw) + 0.5 + self.filter.sample(uniform(keys, 0))
+        fy = y0 + (pixel // cw) + 0.5 + self.filter.sample(uniform(keys, 1))
+        o, d, tmax = self.camera.generate_rays(fx, fy)
+        if self._camera_stack is not None:
+            counts = np.repeat(self._camera_stack[None, :], n, axis=0)
+        elif self.media.n_volumes:
+            counts = self.media.stack_at(o)
+        else:
+            counts = self.media.empty_stack(n)
+        zeros_i = np.zeros(n, np.int32)
+        S = PathState(pid=np.arange(n), key=keys, o=o, d=d, tmax=tmax, beta=np.ones((n, 3)),
+                      counts=counts, bounce=zeros_i.copy(), diffuse=zeros_i.copy(),
+                      volume=zeros_i.copy(), bounds=zeros_i.copy(), tat=np.zeros(n, bool),
+                      prev_pdf=np.zeros(n), prev_pos=o.copy(), travelled=np.zeros(n),
+                      event=zeros_i.copy())
+        L = np.zeros((n, 3))
+        while len(S):
+            if cancel is not None and cancel():
+                raise Cancelled()
+            S = self._iteration(S, L, stats)
+        return L, stats
+
+    def _u(self, S, offset, idx=None):
+        if idx is None:
+            return uniform(S.key, event_dimension(S.event, offset))
+        return uniform(S.key[idx], event_dimension(S.event[idx], offset))
+
+    # -----------------------------------------------------------------------------------------
+    def _iteration(self, S: PathState, L: np.ndarray, stats: dict) -> PathState:
+        st = self.settings
+        n = len(S)
+        hits = self.accel.intersect(S.o, S.d, S.tmax)
+        stats["rays"] += n
+        geo = (hits.prim >= 0) & (hits.t <= S.tmax)
+        t_seg = np.where(geo, hits.t, S.tmax)
+
+        # ---- medium segment --------------------------------------------------------------
+        scatter = np.zeros(n, bool)
+        t_scatter = np.full(n, np.inf)
+        survive_p = None
+        if self.media.any_medium:
+            sig_s, sig_t, emis, g = self.media.coefficients(S.counts)
+            in_med = (sig_t.max(axis=1) > 0) | (emis.max(axis=1) > 0)
+        else:
+            in_med = np.zeros(n, bool)
+        beta_in = S.beta.copy()
+        if in_med.any():
+            i = np.nonzero(in_med & (emis.max(axis=1) > 0))[0]
+            if len(i):
+                L[S.pid[i]] += S.beta[i] * md.emission_integral(emis[i], sig_t[i], t_seg[i])
+            i = np.nonzero(in_med & ~S.tat & (sig_s.max(axis=1) > 0))[0]
+            if len(i) and self.lights.count:
+                self._medium_nee(S, i, L, sig_s[i], sig_t[i], g[i], t_seg[i], stats)
+            # continuation: free-flight sampling, or plain attenuation when scattering is over
+            samp = np.nonzero(in_med & ~S.tat & (sig_s.max(axis=1) > 0))[0]
+            survive_p = np.zeros((n, 3))
+            if len(samp):
+                p = md.channel_probabilities(S.beta[samp], sig_s[samp], sig_t[samp])
+                survive_p[samp] = p
+                ts = md.sample_distance(sig_t[samp], p, self._u(S, D_CHANNEL, samp), self._u(S, D_DISTANCE, samp))
+                sc = ts < t_seg[samp]
+                t_scatter[samp[sc]] = ts[sc]
+                scatter[samp[sc]] = True
+                pdf, _, tr = md.distance_pdf(sig_t[samp[sc]], p[sc], ts[sc])
+                j = samp[sc]
+                S.beta[j] = S.beta[j] * sig_s[j] * tr / np.maximum(pdf, 1e-300)[:, None]
+                k = samp[~sc]
+                _, surv, tr = md.distance_pdf(sig_t[k], p[~sc], t_seg[k])
+                S.beta[k] = np.where(surv[:, None] > 0, S.beta[k] * tr / np.where(surv > 0, surv, 1.0)[:, None], 0.0)
+            att = np.nonzero(in_med & ~np.isin(np.arange(n), samp))[0]
+            if len(att):
+                S.beta[att] = S.beta[att] * md.transmittance(sig_t[att], t_seg[att])
+
+        # ---- lamps crossed before the end of the segment (they do not block) -------------
+        if len(self.lights.hittable_rows):
+            reach = np.minimum(t_scatter, t_seg)
+            for t_l, radiance, lpdf in self.lights.intersect_lamps(
+                    S.prev_pos, S.d, S.travelled, S.travelled + reach):
+                hit = np.nonzero(np.isfinite(t_l))[0]
+                if not len(hit):
+                    continue
+                w = np.where(S.prev_pdf[hit] > 0, _power_heuristic(S.prev_pdf[hit], lpdf[hit]), 1.0)
+                local_t = t_l[hit] - S.travelled[hit]
+                weight = beta_in[hit]
+                if self.media.any_medium:
+                    tr = md.transmittance(sig_t[hit], local_t)
+                    p = survive_p[hit] if survive_p is not None else np.zeros((len(hit), 3))
+                    sampled = p.sum(axis=1) > 0
+                    _, surv, _ = md.distance_pdf(sig_t[hit], np.where(sampled[:, None], p, 1.0), local_t)
+                    scale = np.where(sampled[:, None], tr / np.maximum(surv, 1e-300)[:, None], tr)
+                    weight = weight * scale
+                L[S.pid[hit]] += weight * radiance[hit] * w[:, None]
+
+        # ---- escaped rays ------------------------------------------------------------------
+        escaped = ~geo & ~scatter
+        e = np.nonzero(escaped)[0]
+        if len(e):
+            for radiance, lpdf in self.lights.escaped_emission(S.d[e]):
+                w = np.where(S.prev_pdf[e] > 0, _power_heuristic(S.prev_pdf[e], lpdf), 1.0)
+                L[S.pid[e]] += S.beta[e] * radiance * w[:, None]
+
+        alive = ~escaped
+        # ---- volume scattering vertices ------------------------------------------------------
+        v = np.nonzero(scatter)[0]
+        if len(v):
+            stats["vertices"] += len(v)
+            x = S.o[v] + S.d[v] * t_scatter[v][:, None]
+            wo, pdf = hg_sample(S.d[v], g[v], self._u(S, D_PHASE_U, v), self._u(S, D_PHASE_V, v))
+            # beta *= phase / pdf == 1 for exactly sampled HG
+            S.o[v], S.d[v], S.prev_pos[v], S.prev_pdf[v] = x, wo, x, pdf
+            S.travelled[v] = 0.0
+            S.tmax[v] = np.inf
+            S.volume[v] += 1
+            S.bounce[v] += 1
+            S.tat[v] |= (S.volume[v] > st.volume_bounces) | (S.bounce[v] > st.max_bounces)
+            alive[v] &= self._russian_roulette(S, v)
+
+        # ---- surface hits ------------------------------------------------------------------
+        s = np.nonzero(geo & ~scatter)[0]
+        if len(s):
+            alive[s] &= self._surfaces(S, s, hits, L, stats)
+
+        S.event += 1
+        S.keep(alive & np.any(S.beta > 0, axis=1))
+        return S
+
+    # -----------------------------------------------------------------------------------------
+    def _russian_roulette(self, S, idx):
+        past = S.bounce[idx] > self.settings.russian_roulette_min_bounces
+        q = np.minimum(np.sqrt(np.abs(S.beta[idx]).max(axis=1)), 1.0)
+        u = self._u(S, D_RR, idx)
+        survive = ~past | (u < q)
+        scale = np.where(past & survive, 1.0 / np.maximum(q, 1e-30), 1.0)
+        S.beta[idx] *= scale[:, None]
+        return survive
+
+    def _surfaces(self, S, s, hits, L, stats):
+        """Shade surface hits s; returns which of them continue."""
+        accel = self.accel
+        st = self.settings
+        prim = hits.prim[s]
+        t = hits.t[s]
+        p = S.o[s] + S.d[s] * t[:, None]
+        ng = accel.normals[prim]
+        cos_in = _dot(S.d[s], ng)
+        front = cos_in < 0
+        cont = np.ones(len(s), bool)
+        eps = accel.epsilon
+
+        # null boundary: cross it, update the volume stack, keep the direction
+        null = self.tri_null[prim]
+        if null.any():
+            a = s[null]
+            sub = S.counts[a]
+            self.media.cross(sub, prim[null], front[null])
+            S.counts[a] = sub
+            S.o[a] = p[null] + S.d[a] * eps + ng[null] * (np.where(front[null], -eps, eps))[:, None]
+            S.travelled[a] += t[null]
+            S.tmax[a] = S.tmax[a] - t[null]
+            S.bounds[a] += 1
+            cont[null] = S.bounds[a] <= MAX_VOLUME_BOUNDS
+        opaque = ~null
+        if not opaque.any():
+            return cont
+        b = s[opaque]
+        pb, primb, ngb, frontb = p[opaque], prim[opaque], ng[opaque], front[opaque]
+        stats["vertices"] += len(b)
+
+        # emission (two-sided by default), MIS against the light-sampling pdf
+        em = self.tri_emissive[primb]
+        if em.any():
+            e = b[em]
+            dist = S.travelled[e] + t[opaque][em]
+            radiance, lpdf = self.lights.triangle_emission(primb[em], S.prev_pos[e], S.d[e], dist, frontb[em])
+            w = np.where(S.prev_pdf[e] > 0, _power_heuristic(S.prev_pdf[e], lpdf), 1.0)
+            L[S.pid[e]] += S.beta[e] * radiance * w[:, None]
+
+        # terminate-after-transparent paths end here
+        done = S.tat[b]
+        keep = ~done
+        n_face = np.where(frontb[:, None], ngb, -ngb)
+        origin = pb + n_face * eps
+        albedo = self.mat_albedo[self.accel.material_ids[primb]]
+        ns = accel.shading_normals(primb, hits.u[b], hits.v[b]) if accel.has_smooth else ngb
+        ns = np.where((_dot(ns, n_face) < 0)[:, None], -ns, ns)
+        diffuse = keep & np.any(albedo > 0, axis=1)
+        i = np.nonzero(diffuse)[0]
+        if len(i) and self.lights.count:
+            bi = b[i]
+            rows = self.lights.select(self._u(S, D_SURF_SELECT, bi))
+            ls = self.lights.sample(rows, origin[i], self._u(S, D_SURF_LU, bi), self._u(S, D_SURF_LV, bi))
+            f, bsdf_pdf = lambert_eval(albedo[i], ns[i], ls.wi)
+            above = _dot(ls.wi, n_face[i]) > 0
+            w = np.where(ls.pdf > 0, _power_heuristic(ls.pdf, bsdf_pdf), 1.0)
+            contrib = S.beta[bi] * f * ls.value * (w * above)[:, None]
+            nz = np.nonzero(np.any(contrib > 0, axis=1))[0]
+            if len(nz):
+                tr = self._shadow(origin[i][nz], ls.wi[nz], ls.dist[nz], S.counts[bi[nz]], stats)
+                L[S.pid[bi[nz]]] += contrib[nz] * tr
+        # continue with a cosine-sampled direction
+        wi, weight, pdf = lambert_sample(albedo[i], ns[i], self._u(S, D_BSDF_U, b[i]), self._u(S, D_BSDF_V, b[i]))
+        bi = b[i]
+        ok = _dot(wi, n_face[i]) > 0  # smooth normals may point below the geometric surface
+        S.o[bi], S.d[bi] = origin[i], wi
+        S.beta[bi] = S.beta[bi] * weight * ok[:, None]
+        S.prev_pos[bi], S.prev_pdf[bi] = origin[i], pdf
+        S.travelled[bi] = 0.0
+        S.tmax[bi] = np.inf
+        S.bounce[bi] += 1
+        S.diffuse[bi] += 1
+        S.tat[bi] |= (S.diffuse[bi] > st.diffuse_bounces) | (S.bounce[bi] > st.max_bounces)
+        survive = np.zeros(len(b), bool)
+        survive[i] = self._russian_roulette(S, bi)
+        cont[opaque] = survive
+        return cont
+
+    # -----------------------------------------------------------------------------------------
+    def _medium_nee(self, S, i, L, sig_s, sig_t, g, t_end, stats):
+        """One next-event vertex per medium segment (see module docstring)."""
+        lights = self.lights
+        mode = self.settings.volume_sampling
+        o, d, beta = S.o[i], S.d[i], S.beta[i]
+        rows = lights.select(self._u(S, D_MED_SELECT, i))
+        positional = lights.has_position(rows)
+        valid = (sig_t > 0) | np.isfinite(t_end)[:, None]
+        p = md.channel_probabilities(beta, sig_s, sig_t, valid)
+        can_distance = p.sum(axis=1) > 0
+        can_equi = positional & (mode != "distance")
+        if mode == "equiangular":
+            prob_eq = np.where(can_equi, 1.0, 0.0)
+        else:
+            prob_eq = np.where(can_equi & can_distance, 0.5, np.where(can_equi, 1.0, 0.0))
+        prob_eq = np.where(~can_equi & ~can_distance, 0.0, prob_eq)
+        usable = can_equi | can_distance
+        setup = md.equiangular_setup(o, d, t_end, lights.position[rows])
+        u_t = self._u(S, D_MED_T, i)
+        t_eq, _ = md.equiangular_sample(setup, u_t)
+        t_di = md.sample_distance_truncated(sig_t, p, self._u(S, D_MED_CHANNEL, i), u_t, t_end)
+        use_eq = self._u(S, D_MED_TECH, i) < prob_eq
+        t = np.where(use_eq, t_eq, t_di)
+        t = np.where(np.isfinite(t), t, 0.0)
+        pdf_t = prob_eq * md.equiangular_pdf(setup, t) + \
+            (1.0 - prob_eq) * np.where(can_distance, md.truncated_distance_pdf(sig_t, p, t, t_end), 0.0)
+        good = usable & (pdf_t > 0) & np.isfinite(pdf_t)
+        x = o + d * t[:, None]
+        ls = lights.sample(rows, x, self._u(S, D_MED_LU, i), self._u(S, D_MED_LV, i))
+        phase = hg_eval(g, _dot(d, ls.wi))
+        w = np.where(ls.pdf > 0, _power_heuristic(ls.pdf, phase), 1.0)
+        scale = np.where(good, w / np.where(good, pdf_t, 1.0), 0.0)
+        contrib = beta * md.transmittance(sig_t, t) * sig_s * (phase * scale)[:, None] * ls.value
+        nz = np.nonzero(np.any(contrib > 0, axis=1))[0]
+        if len(nz):
+            tr = self._shadow(x[nz], ls.wi[nz], ls.dist[nz], S.counts[i[nz]], stats)
+            L[S.pid[i[nz]]] += contrib[nz] * tr
+
+    def _shadow(self, origin, wi, dist, counts, stats):
+        """Transmittance (N,3) from origin toward wi over dist, through null boundaries and media."""
+        n = len(origin)
+        eps = self.accel.epsilon
+        remaining = np.where(np.isfinite(dist), np.maximum(dist - 2.0 * eps, 0.0), np.inf)
+        T = np.ones((n, 3))
+        if not self.has_null:
+            stats["shadow_rays"] += n
+            blocked = self.accel.occluded(origin, wi, remaining)
+            if self.media.any_medium:
+                _, sig_t, _, _ = self.media.coefficients(counts)
+                T *= md.transmittance(sig_t, remaining)
+            T[blocked] = 0.0
+            return T
+        counts = counts.copy()
+        origin = origin.copy()
+        alive = np.arange(n)
+        for _ in range(MAX_VOLUME_BOUNDS):
+            if not len(alive):
+                break
+            hits = self.accel.intersect(origin[alive], wi[alive], remaining[alive])
+            stats["shadow_rays"] += len(alive)
+            hit = hits.prim >= 0
+            seg = np.where(hit, hits.t, remaining[alive])
+            if self.media.any_medium:
+                _, sig_t, _, _ = self.media.coefficients(counts[alive])
+                T[alive] *= md.transmittance(sig_t, seg)
+            null = hit & self.tri_null[np.maximum(hits.prim, 0)]
+            T[alive[hit & ~null]] = 0.0
+            a = alive[null]
+            prim = hits.prim[null]
+            ng = self.accel.normals[prim]
+            front = _dot(wi[a], ng) < 0
+            sub = counts[a]
+            self.media.cross(sub, prim, front)
+            counts[a] = sub
+            origin[a] = origin[a] + wi[a] * (seg[null] + eps)[:, None]
+            remaining[a] = remaining[a] - seg[null] - eps
+            alive = a[remaining[a] > 0]
+        T[alive] = 0.0
+        return T

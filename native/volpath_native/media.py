@@ -1,0 +1,214 @@
+"""Homogeneous participating media: the volume stack, coefficients per path, free-flight
+distance sampling in chromatic media and equiangular sampling.
+
+Volume stack: one counter per *volume* (a closed mesh paired with the medium of its material);
+a front-face crossing of a null boundary enters, a back-face crossing leaves (Cycles
+kernel/integrator/volume_stack.h). Overlapping volumes add their coefficients; the world medium
+is always at the bottom.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .accel import Accelerator
+from .scene import Scene
+
+_WALK_DIRECTION = np.array([0.5773, 0.5774, 0.5775]) / np.linalg.norm([0.5773, 0.5774, 0.5775])
+
+
+class MediaTable:
+    def __init__(self, scene: Scene, accel: Accelerator):
+        mat_medium = np.array([m.medium for m in scene.materials], dtype=np.int64).reshape(-1)
+        tri_medium = mat_medium[accel.material_ids] if len(mat_medium) else np.zeros(0, np.int64)
+        pairs = np.stack([accel.mesh_ids.astype(np.int64), tri_medium], axis=1)[tri_medium >= 0]
+        uniq = np.unique(pairs, axis=0) if len(pairs) else np.zeros((0, 2), np.int64)
+        self.volume_medium = uniq[:, 1]
+        self.n_volumes = len(uniq)
+        self.tri_volume = np.full(accel.triangle_count, -1, np.int32)
+        for v, (mesh, medium) in enumerate(uniq):
+            sel = (accel.mesh_ids == mesh) & (tri_medium == medium)
+            self.tri_volume[sel] = v
+        media = scene.media
+
+        def table(attr):
+            return np.array([getattr(media[m], attr) for m in self.volume_medium]).reshape(-1, 3)
+
+        self.sigma_s = table("sigma_s")
+        self.sigma_a = table("sigma_a")
+        self.emission = table("emission")
+        self.g = np.array([media[m].g for m in self.volume_medium], dtype=np.float64)
+        w = scene.world.medium
+        zero = np.zeros(3)
+        self.world_sigma_s = media[w].sigma_s if w >= 0 else zero
+        self.world_sigma_a = media[w].sigma_a if w >= 0 else zero
+        self.world_emission = media[w].emission if w >= 0 else zero
+        self.world_g = media[w].g if w >= 0 else 0.0
+        self.any_medium = bool(self.n_volumes) or bool(np.any(self.world_sigma_s + self.world_sigma_a > 0)
+                                                       or np.any(self.world_emission > 0))
+        self.accel = accel
+        self.warnings: list[str] = []
+        world_t = self.world_sigma_s + self.world_sigma_a
+        if np.any((self.world_emission > 0) & (world_t <= 0)):
+            self.warnings.append("world medium emits but does not attenuate: its emission would be "
+                                 "infinite along escaping rays and is ignored there")
+
+    def empty_stack(self, n: int) -> np.ndarray:
+        return np.zeros((n, max(self.n_volumes, 1)), dtype=np.int8)
+
+    def coefficients(self, counts: np.ndarray):
+        """(sigma_s, sigma_t, emission, g) per path for volume-stack counters (N, V)."""
+        n = len(counts)
+        sigma_s = np.broadcast_to(self.world_sigma_s, (n, 3)).copy()
+        sigma_a = np.broadcast_to(self.world_sigma_a, (n, 3)).copy()
+        emission = np.broadcast_to(self.world_emission, (n, 3)).copy()
+        g_weight = np.full(n, self.world_sigma_s.mean())
+        g_sum = g_weight * self.world_g
+        if self.n_volumes:
+            inside = (counts[:, :self.n_volumes] > 0).astype(np.float64)
+            sigma_s += inside @ self.sigma_s
+            sigma_a += inside @ self.sigma_a
+            emission += inside @ self.emission
+            ws = inside * self.sigma_s.mean(axis=1)
+            g_weight += ws.sum(axis=1)
+            g_sum += ws @ self.g
+        # Overlapping media with different g are approximated by the sigma_s-weighted mean g.
+        g = np.where(g_weight > 0, g_sum / np.where(g_weight > 0, g_weight, 1.0), 0.0)
+        return sigma_s, sigma_s + sigma_a, emission, g
+
+    def cross(self, counts: np.ndarray, prim: np.ndarray, front: np.ndarray) -> None:
+        """Update counters in place for null-boundary crossings of triangles prim."""
+        vol = self.tri_volume[prim]
+        m = vol >= 0
+        if not m.any():
+            return
+        idx = np.nonzero(m)[0]
+        step = np.where(front[idx], 1, -1).astype(np.int16)
+        new = counts[idx, vol[idx]].astype(np.int16) + step
+        counts[idx, vol[idx]] = np.clip(new, 0, 127).astype(np.int8)
+
+    def stack_at(self, points: np.ndarray, max_crossings: int = 256) -> np.ndarray:
+        """Volume-stack counters for arbitrary points, by walking a ray to infinity and counting
+        boundary crossings (Cycles does the same for the camera: volume_stack_init)."""
+        n = len(points)
+        counts = np.zeros((n, max(self.n_volumes, 1)), dtype=np.int16)
+        if not self.n_volumes or n == 0:
+            return counts.astype(np.int8)
+        origins = points.astype(np.float64).copy()
+        dirs = np.broadcast_to(_WALK_DIRECTION, (n, 3)).copy()
+        active = np.arange(n)
+        eps = self.accel.epsilon
+        for _ in range(max_crossings):
+            if len(active) == 0:
+                break
+            hits = self.accel.intersect(origins[active], dirs[active])
+            found = hits.prim >= 0
+            active, prim, t = active[found], hits.prim[found], hits.t[found]
+            vol = self.tri_volume[prim]
+            leaving = np.einsum("ij,ij->i", dirs[active], self.accel.normals[prim]) > 0
+            m = vol >= 0
+            np.add.at(counts, (active[m], vol[m]), np.where(leaving[m], 1, -1).astype(np.int16))
+            origins[active] = origins[active] + dirs[active] * (t + eps)[:, None]
+        return np.clip(counts, 0, 127).astype(np.int8)
+
+
+# ---------------------------------------------------------------------------------------------
+# Free-flight sampling (chromatic): the channel is chosen per path and the pdf averaged over
+# channels -- the one-sample spectral MIS of pbrt-v4 (media.h SampleT_maj + "r_u" rescaling) and
+# Cycles (kernel/integrator/volume_shader/shade_volume.h, volume_sample_channel).
+# ---------------------------------------------------------------------------------------------
+def channel_probabilities(beta: np.ndarray, sigma_s: np.ndarray, sigma_t: np.ndarray,
+                          valid: np.ndarray | None = None) -> np.ndarray:
+    """Per-path channel probabilities proportional to |throughput * albedo| (Cycles), with a
+    uniform share so every channel that carries energy can be sampled."""
+    albedo = np.where(sigma_t > 0, sigma_s / np.where(sigma_t > 0, sigma_t, 1.0), 0.0)
+    w = np.abs(beta) * albedo
+    s = w.sum(axis=1, keepdims=True)
+    w = np.where(s > 0, w / np.where(s > 0, s, 1.0), 1.0 / 3.0)
+    p = 0.9 * w + 0.1 / 3.0
+    if valid is not None:
+        p = p * valid
+        s = p.sum(axis=1, keepdims=True)
+        p = np.where(s > 0, p / np.where(s > 0, s, 1.0), 0.0)
+    return p
+
+
+def pick_channel(p: np.ndarray, u: np.ndarray) -> np.ndarray:
+    c = (u >= p[:, 0]).astype(np.int64) + (u >= p[:, 0] + p[:, 1])
+    return np.minimum(c, 2)
+
+
+def sample_distance(sigma_t, p, u_channel, u):
+    """Untruncated exponential free flight with the chosen channel; inf where sigma = 0."""
+    c = pick_channel(p, u_channel)
+    s = sigma_t[np.arange(len(c)), c]
+    return np.where(s > 0, -np.log1p(-u) / np.where(s > 0, s, 1.0), np.inf)
+
+
+def distance_pdf(sigma_t, p, t):
+    """Channel-averaged free-flight density at t and survival probability beyond t."""
+    tt = np.where(np.isfinite(t), t, 0.0)[:, None]
+    tr = np.where(np.isfinite(t)[:, None], np.exp(-sigma_t * tt), (sigma_t <= 0).astype(np.float64))
+    return (p * sigma_t * tr).sum(axis=1), (p * tr).sum(axis=1), tr
+
+
+def sample_distance_truncated(sigma_t, p, u_channel, u, t_end):
+    """Exponential restricted to [0, t_end] (t_end may be inf where that channel attenuates)."""
+    c = pick_channel(p, u_channel)
+    s = sigma_t[np.arange(len(c)), c]
+    finite = np.isfinite(t_end)
+    te = np.where(finite, t_end, 0.0)
+    mass = np.where(finite, -np.expm1(-s * te), 1.0)
+    t_exp = -np.log1p(-u * mass) / np.where(s > 0, s, 1.0)
+    return np.where(s > 1e-12, t_exp, u * te)
+
+
+def truncated_distance_pdf(sigma_t, p, t, t_end):
+    finite = np.isfinite(t_end)[:, None]
+    te = np.where(finite, t_end[:, None], 0.0)
+    mass = np.where(finite, -np.expm1(-sigma_t * te), 1.0)
+    small = sigma_t * np.where(finite, te, np.inf) < 1e-9
+    dens = np.where(small, 1.0 / np.where(finite & (te > 0), te, np.inf),
+                    sigma_t * np.exp(-sigma_t * t[:, None]) / np.where(mass > 0, mass, 1.0))
+    return (p * dens).sum(axis=1)
+
+
+def transmittance(sigma_t, distance):
+    """exp(-sigma_t d), with exp(-0 * inf) = 1."""
+    d = distance[:, None]
+    return np.where(sigma_t > 0, np.exp(-sigma_t * np.where(np.isfinite(d), d, 1e300)), 1.0)
+
+
+def emission_integral(emission, sigma_t, distance):
+    """Integral of emission * T(t) over [0, distance] in a homogeneous medium (analytic, as
+    Cycles' homogeneous volume emission); infinite paths without attenuation contribute 0."""
+    d = np.where(np.isfinite(distance), distance, np.inf)[:, None]
+    with np.errstate(invalid="ignore", over="ignore"):
+        attenuating = emission * -np.expm1(-sigma_t * d) / np.where(sigma_t > 0, sigma_t, 1.0)
+        flat = emission * np.where(np.isfinite(d), d, 0.0)
+    return np.where(sigma_t > 0, attenuating, flat)
+
+
+# ---------------------------------------------------------------------------------------------
+# Equiangular sampling toward a point (Kulla & Fajardo 2012, "Importance Sampling Techniques for
+# Path Tracing in Participating Media", section 4.1; Cycles kernel/integrator/shade_volume.h).
+# ---------------------------------------------------------------------------------------------
+def equiangular_setup(origins, directions, t_end, light_pos):
+    delta = np.einsum("ij,ij->i", light_pos - origins, directions)
+    closest = origins + directions * delta[:, None]
+    D = np.maximum(np.linalg.norm(light_pos - closest, axis=1), 1e-7)
+    theta_a = np.arctan2(-delta, D)
+    theta_b = np.where(np.isfinite(t_end), np.arctan2(np.where(np.isfinite(t_end), t_end, 0.0) - delta, D),
+                       0.5 * np.pi)
+    return delta, D, theta_a, theta_b
+
+
+def equiangular_sample(setup, u):
+    delta, D, ta, tb = setup
+    t = delta + D * np.tan(ta + u * (tb - ta))
+    return t, equiangular_pdf(setup, t)
+
+
+def equiangular_pdf(setup, t):
+    delta, D, ta, tb = setup
+    span = np.maximum(tb - ta, 1e-12)
+    return D / (span * (D * D + (t - delta) ** 2))

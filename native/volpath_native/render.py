@@ -1,0 +1,131 @@
+"""Progressive rendering: rounds of samples over the crop region, batches of paths traced by a
+thread pool (Embree and large numpy operations release the GIL), callbacks for progress,
+partial images and cancellation."""
+from __future__ import annotations
+
+import os
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .integrator import Cancelled, Integrator
+from .scene import Scene, SceneError
+
+
+@dataclass
+class RenderResult:
+    image: np.ndarray          # (H, W, 4) float32 scene-linear RGBA, row 0 = top, crop region
+    variance: np.ndarray       # (H, W, 3) float32 estimated variance of each pixel's mean
+    samples: int               # samples per pixel actually rendered
+    seconds: float
+    stats: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
+    cancelled: bool = False
+    crop_offset: tuple = (0, 0)  # (x, y) of the crop region from the top-left of the full frame
+
+
+class _Film:
+    """Per-pixel running sums of the samples and their squares (float64)."""
+
+    def __init__(self, n_pixels: int):
+        self.sum = np.zeros((n_pixels, 3))
+        self.sum_sq = np.zeros((n_pixels, 3))
+        self.count = np.zeros(n_pixels)
+        self.lock = threading.Lock()
+
+    def add(self, pixel, values):
+        n = len(self.count)
+        with self.lock:
+            self.count += np.bincount(pixel, minlength=n)
+            for c in range(3):
+                self.sum[:, c] += np.bincount(pixel, weights=values[:, c], minlength=n)
+                self.sum_sq[:, c] += np.bincount(pixel, weights=values[:, c] ** 2, minlength=n)
+
+    def mean(self):
+        return self.sum / np.maximum(self.count, 1)[:, None]
+
+    def variance_of_mean(self):
+        n = self.count[:, None]
+        mean = self.mean()
+        var = (self.sum_sq / np.maximum(n, 1) - mean ** 2) * (n / np.maximum(n - 1, 1))
+        return np.maximum(var, 0.0) / np.maximum(n, 1)
+
+
+def _thread_count(requested: int) -> int:
+    return max(1, requested if requested > 0 else (os.cpu_count() or 1))
+
+
+def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderResult:
+    """Render scene.settings.samples samples per pixel progressively (see module docstring)."""
+    warnings = list(scene.validate())
+    st = scene.settings
+    if st.samples < 1:
+        raise SceneError(f"samples must be at least 1, got {st.samples}")
+    if st.volume_sampling not in ("mis", "distance", "equiangular"):
+        raise SceneError(f"unknown volume sampling '{st.volume_sampling}'")
+    start = time.perf_counter()
+    integrator = Integrator(scene)
+    warnings += integrator.warnings
+    x0, y0, cw, ch = integrator.crop
+    n_pix = cw * ch
+    film = _Film(n_pix)
+    threads = _thread_count(st.threads)
+    batch = max(256, int(st.batch_size))
+    # A round is at least one sample everywhere and roughly a batch per thread.
+    per_round = max(1, min(st.samples, (threads * batch) // max(n_pix, 1)))
+    stats = dict(rays=0, shadow_rays=0, vertices=0, paths=0)
+    done = 0
+    cancelled = False
+
+    def run(chunk):
+        pix, smp = chunk
+        values, s = integrator.render_paths(pix, smp, cancel)
+        film.add(pix, values)
+        return s
+
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+        while done < st.samples and not cancelled:
+            n_smp = min(per_round, st.samples - done)
+            pixels = np.tile(np.arange(n_pix, dtype=np.int64), n_smp)
+            samples = np.repeat(np.arange(done, done + n_smp, dtype=np.int64), n_pix)
+            chunks = [(pixels[k:k + batch], samples[k:k + batch]) for k in range(0, len(pixels), batch)]
+            try:
+                for s in pool.map(run, chunks):
+                    for k in stats:
+                        stats[k] += s[k]
+            except Cancelled:
+                cancelled = True
+                break
+            done += n_smp
+            elapsed = time.perf_counter() - start
+            stats.update(seconds=elapsed, samples_per_second=done * n_pix / max(elapsed, 1e-9),
+                         rays_per_second=(stats["rays"] + stats["shadow_rays"]) / max(elapsed, 1e-9),
+                         vertices_per_second=stats["vertices"] / max(elapsed, 1e-9))
+            if partial is not None:
+                partial(_image(film, ch, cw))
+            if progress is not None:
+                progress(done, st.samples, dict(stats))
+            if cancel is not None and cancel():
+                cancelled = True
+    if cancelled:
+        # Discard samples of a half-finished round so every pixel has the same count.
+        pass
+    elapsed = time.perf_counter() - start
+    stats["seconds"] = elapsed
+    image = _image(film, ch, cw)
+    if not np.all(np.isfinite(image)):
+        bad = int(np.count_nonzero(~np.isfinite(image[..., :3]).all(axis=2)))
+        warnings.append(f"{bad} pixels had non-finite values and were set to 0 (please report)")
+        image = np.nan_to_num(image, nan=0.0, posinf=0.0, neginf=0.0)
+    variance = film.variance_of_mean().reshape(ch, cw, 3).astype(np.float32)
+    return RenderResult(image=image, variance=variance, samples=done, seconds=elapsed, stats=stats,
+                        warnings=warnings, cancelled=cancelled, crop_offset=(x0, y0))
+
+
+def _image(film: _Film, h: int, w: int) -> np.ndarray:
+    rgb = film.mean().reshape(h, w, 3)
+    alpha = np.where(film.count.reshape(h, w, 1) > 0, 1.0, 0.0)
+    return np.concatenate([rgb, alpha], axis=2).astype(np.float32)
