@@ -228,7 +228,7 @@ def add_cornell_box(scene, size: float = 2.0, white=(0.8, 0.8, 0.8), left=(0.8, 
 
 def cornell_camera(scene, size: float = 2.0, lens_mm: float = 35.0):
     """Camera in front of the Cornell box opening, framing the whole box."""
-    distance = size * 1.95
+    distance = size * 1.45
     return add_camera(scene, (0.0, -size / 2 - distance, size / 2), (0.0, 0.0, size / 2), lens_mm)
 
 
@@ -267,6 +267,8 @@ def add_spot_light(scene, location, target, power_w: float, spot_size_deg: float
 
 def add_area_light(scene, location, target, power_w: float, size: float = 0.5, shape: str = "SQUARE",
                    size_y: Optional[float] = None, color=(1.0, 1.0, 1.0), name: str = "Area"):
+    """An area light hidden from camera rays: VolPath's model has no visible lamp geometry, so the
+    scenes compare the light's transport only (Cycles shows area lights to the camera by default)."""
     light = bpy.data.lights.new(name, "AREA")
     light.energy = float(power_w)
     light.color = color
@@ -274,7 +276,9 @@ def add_area_light(scene, location, target, power_w: float, size: float = 0.5, s
     light.size = float(size)
     if size_y is not None:
         light.size_y = float(size_y)
-    return _light_object(scene, name, light, location, target)
+    obj = _light_object(scene, name, light, location, target)
+    obj.visible_camera = False
+    return obj
 
 
 def add_sun_light(scene, direction, strength: float, angle_deg: float = 0.0, color=(1.0, 1.0, 1.0),

@@ -18,9 +18,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-# A pixel whose estimated variance is zero in both engines (e.g. it only sees the constant
-# background) still carries float32 rounding: differences below this relative size are equal.
-FLOAT32_RELATIVE_NOISE = 1e-6
+# A pixel whose estimated variance is (almost) zero in both engines (e.g. it only sees a constant
+# emitter) still carries float32 rounding of a whole path's arithmetic (Cycles computes in float32:
+# ray distances, exp(), products of tens of factors, each ~6e-8 relative): differences below this
+# relative size count as equal.
+FLOAT32_RELATIVE_NOISE = 1e-5
 # relMSE's guard against division by ~0 in dark pixels (the value used by Rousselle et al. and
 # most denoising papers).
 RELMSE_EPSILON = 1e-2

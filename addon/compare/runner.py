@@ -164,7 +164,8 @@ def compare_scene(scene, options: CompareOptions, out_dir=None, progress: Option
         raise RuntimeError(f"VolPath rendered {volpath.statistics.mean.shape[:2]} pixels but Cycles "
                            f"{cycles.statistics.mean.shape[:2]}: the film settings do not match")
     comparison = metrics.compare_runs(volpath.statistics, cycles.statistics, options.alpha)
-    result = CompareResult(scene_name=scene.name, options=options, volpath=volpath, cycles=cycles,
+    name = Path(bpy.data.filepath).stem if bpy.data.filepath else scene.name
+    result = CompareResult(scene_name=name, options=options, volpath=volpath, cycles=cycles,
                            comparison=comparison, warnings=warnings)
     if options.reference:
         result.reference_errors = reference_errors(options.reference, volpath, cycles)
