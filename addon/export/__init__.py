@@ -48,8 +48,8 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
     triangulated: dict = {}  # evaluated mesh data -> LocalMesh (None: no triangles)
     for instance in depsgraph.object_instances:
         obj = instance.object
-        if not instance.is_instance and not instance.show_self:
-            continue  # an instancer whose own geometry is hidden (e.g. particle emitters)
+        if not instance.show_self:
+            continue  # e.g. an instancer whose own geometry is hidden (Cycles' sync_objects does the same)
         matrix = np.array(instance.matrix_world, dtype=np.float64)
         if obj.type == "LIGHT":
             light = lights.export_light(obj, matrix, reporter)
