@@ -60,7 +60,7 @@ class PathState:
     """Structure of arrays for the paths still alive."""
 
     FIELDS = ("pid", "key", "o", "d", "tmax", "beta", "counts", "bounce", "diffuse", "volume",
-              "bounds", "tat", "prev_pdf", "prev_pos", "travelled", "event")
+              "bounds", "tat", "prev_pdf", "prev_pos", "travelled", "event", "lead")
 
     def __init__(self, **arrays):
         for k in self.FIELDS:
@@ -121,7 +121,7 @@ class Integrator:
                       counts=counts, bounce=zeros_i.copy(), diffuse=zeros_i.copy(),
                       volume=zeros_i.copy(), bounds=zeros_i.copy(), tat=np.zeros(n, bool),
                       prev_pdf=np.zeros(n), prev_pos=o.copy(), travelled=np.zeros(n),
-                      event=zeros_i.copy())
+                      event=zeros_i.copy(), lead=np.zeros(n))
         L = np.zeros((n, 3))
         while len(S):
             if cancel is not None and cancel():
@@ -152,6 +152,11 @@ class Integrator:
             in_med = (sig_t.max(axis=1) > 0) | (emis.max(axis=1) > 0)
         else:
             in_med = np.zeros(n, bool)
+        if in_med.any() and np.any(S.lead > 0):
+            # the origin sits `lead` past the boundary it just crossed: attenuate that gap exactly
+            j = np.nonzero(in_med & (S.lead > 0))[0]
+            S.beta[j] = S.beta[j] * md.transmittance(sig_t[j], S.lead[j])
+        S.lead[:] = 0.0
         beta_in = S.beta.copy()
         if in_med.any():
             i = np.nonzero(in_med & (emis.max(axis=1) > 0))[0]
@@ -263,9 +268,10 @@ class Integrator:
             sub = S.counts[a]
             self.media.cross(sub, prim[null], front[null])
             S.counts[a] = sub
-            S.o[a] = p[null] + S.d[a] * eps + ng[null] * (np.where(front[null], -eps, eps))[:, None]
-            S.travelled[a] += t[null]
-            S.tmax[a] = S.tmax[a] - t[null]
+            S.o[a] = p[null] + S.d[a] * eps
+            S.lead[a] = eps
+            S.travelled[a] += t[null] + eps
+            S.tmax[a] = S.tmax[a] - t[null] - eps
             S.bounds[a] += 1
             cont[null] = S.bounds[a] <= MAX_VOLUME_BOUNDS
         opaque = ~null
@@ -366,19 +372,21 @@ class Integrator:
         """Transmittance (N,3) from origin toward wi over dist, through null boundaries and media."""
         n = len(origin)
         eps = self.accel.epsilon
-        remaining = np.where(np.isfinite(dist), np.maximum(dist - 2.0 * eps, 0.0), np.inf)
+        margin = 2.0 * eps  # stop short of the light's own surface; attenuated like the rest
+        remaining = np.where(np.isfinite(dist), np.maximum(dist - margin, 0.0), np.inf)
         T = np.ones((n, 3))
         if not self.has_null:
             stats["shadow_rays"] += n
             blocked = self.accel.occluded(origin, wi, remaining)
             if self.media.any_medium:
                 _, sig_t, _, _ = self.media.coefficients(counts)
-                T *= md.transmittance(sig_t, remaining)
+                T *= md.transmittance(sig_t, remaining + margin)
             T[blocked] = 0.0
             return T
         counts = counts.copy()
         origin = origin.copy()
         alive = np.arange(n)
+        lead = np.zeros(n)
         for _ in range(MAX_VOLUME_BOUNDS):
             if not len(alive):
                 break
@@ -388,7 +396,7 @@ class Integrator:
             seg = np.where(hit, hits.t, remaining[alive])
             if self.media.any_medium:
                 _, sig_t, _, _ = self.media.coefficients(counts[alive])
-                T[alive] *= md.transmittance(sig_t, seg)
+                T[alive] *= md.transmittance(sig_t, seg + lead[alive] + np.where(hit, 0.0, margin))
             null = hit & self.tri_null[np.maximum(hits.prim, 0)]
             T[alive[hit & ~null]] = 0.0
             a = alive[null]
@@ -400,6 +408,7 @@ class Integrator:
             counts[a] = sub
             origin[a] = origin[a] + wi[a] * (seg[null] + eps)[:, None]
             remaining[a] = remaining[a] - seg[null] - eps
+            lead[a] = eps
             alive = a[remaining[a] > 0]
         T[alive] = 0.0
         return T
