@@ -54,6 +54,9 @@ class _Film:
         return np.maximum(var, 0.0) / np.maximum(n, 1)
 
 
+_COUNTERS = ("rays", "shadow_rays", "vertices", "paths")
+
+
 def _thread_count(requested: int) -> int:
     return max(1, requested if requested > 0 else (os.cpu_count() or 1))
 
@@ -76,7 +79,7 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
     batch = max(256, int(st.batch_size))
     # A round is at least one sample everywhere and roughly a batch per thread.
     per_round = max(1, min(st.samples, (threads * batch) // max(n_pix, 1)))
-    stats = dict(rays=0, shadow_rays=0, vertices=0, paths=0)
+    stats = {k: 0 for k in _COUNTERS}
     done = 0
     cancelled = False
 
@@ -94,7 +97,7 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
             chunks = [(pixels[k:k + batch], samples[k:k + batch]) for k in range(0, len(pixels), batch)]
             try:
                 for s in pool.map(run, chunks):
-                    for k in stats:
+                    for k in _COUNTERS:
                         stats[k] += s[k]
             except Cancelled:
                 cancelled = True

@@ -1,0 +1,89 @@
+"""Single scattering of a point light in an infinite homogeneous medium vs quadrature, and the
+equiangular + distance MIS against distance-only sampling."""
+import numpy as np
+import pytest
+
+from volpath_native import Camera, Medium, PointLight, RenderSettings, Scene, World, render
+from volpath_native.camera import CameraModel
+from volpath_native.phase import hg_eval
+
+from native_helpers import Z_LIMIT, chi2_critical, camera_at, tiny_box_film, z_scores
+
+SIGMA_S = np.array([0.3, 0.5, 0.8])
+SIGMA_A = np.array([0.1, 0.05, 0.2])
+LIGHT = np.array([0.4, 0.3, -2.0])
+POWER = 4 * np.pi * 10.0  # intensity 10 W/sr
+SIZE = 8
+
+
+def _scene(g, sampling="mis", samples=64, seed=5, light=LIGHT):
+    cam = Camera(camera_at([0, 0, 0]), fov=np.radians(50), clip_start=0.0, clip_end=1e4)
+    return Scene(camera=cam, film=tiny_box_film(SIZE), media=[Medium("air", SIGMA_S, SIGMA_A, g=g)],
+                 world=World(medium=0), lights=[PointLight("p", light, power=POWER, radius=0.0)],
+                 settings=RenderSettings(samples=samples, seed=seed, volume_bounces=0, volume_sampling=sampling))
+
+
+def _quadrature(scene, g):
+    """L = int_0^inf e^{-st t} ss p(theta) I e^{-st r} / r^2 dt, by Gauss-Legendre on t = tan(x)
+    split around the point closest to the light."""
+    cam = CameraModel(scene.camera, scene.film)
+    ys, xs = np.mgrid[0:SIZE, 0:SIZE] + 0.5
+    o, d, _ = cam.generate_rays(xs.ravel(), ys.ravel())
+    st = SIGMA_S + SIGMA_A
+    intensity = POWER / (4 * np.pi)
+    x, w = np.polynomial.legendre.leggauss(400)
+    out = np.zeros((len(d), 3))
+    for i, (oi, di) in enumerate(zip(o, d)):
+        delta = (LIGHT - oi) @ di
+        dist = np.linalg.norm(oi + delta * di - LIGHT)
+        # equiangular substitution t = delta + D tan(theta) makes the integrand smooth
+        ta, tb = np.arctan2(-delta, dist), np.pi / 2
+        th = 0.5 * (tb - ta) * x + 0.5 * (tb + ta)
+        t = delta + dist * np.tan(th)
+        jac = 0.5 * (tb - ta) * dist / np.cos(th) ** 2
+        p = oi + t[:, None] * di
+        to_light = LIGHT - p
+        r = np.linalg.norm(to_light, axis=1)
+        cos = (to_light @ di) / r
+        f = np.exp(-np.outer(t + r, st)) * SIGMA_S * (hg_eval(g, cos) * intensity / r ** 2)[:, None]
+        out[i] = (f * (w * jac)[:, None]).sum(axis=0)
+    return out.reshape(SIZE, SIZE, 3)
+
+
+@pytest.mark.parametrize("g", [-0.5, 0.0, 0.7])
+def test_single_scattering_matches_quadrature(g):
+    scene = _scene(g, samples=256)
+    result = render(scene)
+    expected = _quadrature(scene, g)
+    z = z_scores(result.image[..., :3], result.variance, expected)
+    assert np.abs(z).max() < Z_LIMIT, np.abs(z).max()
+    # chi-square per channel (the channels of one pixel share paths, so they are not pooled)
+    chi2 = (z ** 2).sum(axis=(0, 1))
+    assert np.all(chi2 < chi2_critical(SIZE * SIZE)), chi2
+    # and the test has power: a 10 % error in the light's intensity would be detected
+    z_wrong = z_scores(result.image[..., :3], result.variance, 1.1 * expected)
+    assert np.all((z_wrong ** 2).sum(axis=(0, 1)) > chi2_critical(SIZE * SIZE))
+
+
+def test_image_changes_with_anisotropy():
+    back, fwd = _quadrature(_scene(-0.5), -0.5), _quadrature(_scene(0.7), 0.7)
+    assert np.abs(back - fwd).max() > 0.1 * fwd.max()
+    a, b = render(_scene(-0.5, samples=64)), render(_scene(0.7, samples=64))
+    z = z_scores(a.image[..., :3], a.variance, b.image[..., :3], b.variance)
+    assert np.abs(z).max() > Z_LIMIT
+    assert np.all((z ** 2).sum(axis=(0, 1)) > chi2_critical(SIZE * SIZE))
+
+
+def test_equiangular_mis_agrees_with_distance_sampling_and_has_lower_variance():
+    near = np.array([0.05, -0.03, -1.0])  # right next to the central camera rays
+    mis = render(_scene(0.3, "mis", samples=64, seed=1, light=near))
+    dist = render(_scene(0.3, "distance", samples=64, seed=2, light=near))
+    z = z_scores(mis.image[..., :3], mis.variance, dist.image[..., :3], dist.variance)
+    assert np.abs(z).max() < Z_LIMIT, np.abs(z).max()
+    # near the light (the brightest quarter of the pixels: rays passing closest) MIS is much less noisy
+    near_px = mis.image[..., 1] >= np.quantile(mis.image[..., 1], 0.75)
+    var_mis, var_dist = mis.variance[near_px].mean(), dist.variance[near_px].mean()
+    assert var_mis < 0.25 * var_dist, (var_mis, var_dist)
+    equi = render(_scene(0.3, "equiangular", samples=64, seed=3, light=near))
+    z = z_scores(equi.image[..., :3], equi.variance, dist.image[..., :3], dist.variance)
+    assert np.abs(z).max() < Z_LIMIT, np.abs(z).max()
