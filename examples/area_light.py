@@ -1,4 +1,4 @@
-"""A square area light (hidden from the camera) under the ceiling of a foggy Cornell box."""
+"""A square area light under the ceiling of a foggy Cornell box (its emitting face is in view)."""
 import sys
 from pathlib import Path
 

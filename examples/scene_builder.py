@@ -267,8 +267,7 @@ def add_spot_light(scene, location, target, power_w: float, spot_size_deg: float
 
 def add_area_light(scene, location, target, power_w: float, size: float = 0.5, shape: str = "SQUARE",
                    size_y: Optional[float] = None, color=(1.0, 1.0, 1.0), name: str = "Area"):
-    """An area light hidden from camera rays: VolPath's model has no visible lamp geometry, so the
-    scenes compare the light's transport only (Cycles shows area lights to the camera by default)."""
+    """An area light; like Cycles' default it is visible to camera rays (VolPath's too)."""
     light = bpy.data.lights.new(name, "AREA")
     light.energy = float(power_w)
     light.color = color
@@ -276,9 +275,7 @@ def add_area_light(scene, location, target, power_w: float, size: float = 0.5, s
     light.size = float(size)
     if size_y is not None:
         light.size_y = float(size_y)
-    obj = _light_object(scene, name, light, location, target)
-    obj.visible_camera = False
-    return obj
+    return _light_object(scene, name, light, location, target)
 
 
 def add_sun_light(scene, direction, strength: float, angle_deg: float = 0.0, color=(1.0, 1.0, 1.0),
