@@ -218,7 +218,7 @@ class LightSet:
         wi = to / np.maximum(dist, 1e-30)[:, None]
         cos_l = np.maximum(_dot(light_n, -wi), 0.0)
         pdf = np.where(cos_l > 0, dist * dist / np.maximum(cos_l * np.pi * radius * radius, 1e-30), 0.0)
-        mask = self._spot_mask(rows, -to_centre)
+        mask = self._spot_mask(rows, -wi)  # per sampled point (spot.h)
         value = self.strength[rows] * np.where(pdf > 0, mask / np.maximum(pdf, 1e-30), 0.0)[:, None]
         return wi, dist, value, pdf
 
@@ -235,7 +235,7 @@ class LightSet:
         pdf = np.where(outside, pdf_cone, 1.0 / (4.0 * np.pi))
         t, _ = _ray_sphere(p, wi, self.position[rows], r)
         dist = np.where(np.isfinite(t), t, d)
-        mask = self._spot_mask(rows, -to_centre)
+        mask = np.where(outside, self._spot_mask(rows, -wi), 1.0)  # no mask inside the sphere (spot.h)
         value = self.strength[rows] * (mask / pdf)[:, None]
         return wi, dist, value, pdf
 
