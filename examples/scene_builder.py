@@ -104,7 +104,8 @@ def look_at(obj, location, target) -> None:
 # ------------------------------------------------------------------------------------------------
 def _material(name: str):
     mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
+    if mat.node_tree is None:  # Blender < 5.0 creates materials without nodes
+        mat.use_nodes = True
     nodes = mat.node_tree.nodes
     nodes.clear()
     output = nodes.new("ShaderNodeOutputMaterial")
@@ -295,7 +296,8 @@ def set_world_background(scene, color, strength: float, volume_material=None) ->
     """World = Background(color, strength) and optionally a world volume (a volume-only material's
     Principled Volume / Volume Scatter node tree rebuilt in the world)."""
     world = scene.world
-    world.use_nodes = True
+    if world.node_tree is None:  # Blender < 5.0
+        world.use_nodes = True
     nodes, links = world.node_tree.nodes, world.node_tree.links
     nodes.clear()
     output = nodes.new("ShaderNodeOutputWorld")

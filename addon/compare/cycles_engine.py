@@ -120,6 +120,10 @@ def matched_settings(scene, bounces: BounceLimits, resolution: Optional[tuple] =
         snapshot.set(settings, "color_depth", "32")
         snapshot.set(settings, "exr_codec", "NONE")
         snapshot.set(render, "use_file_extension", True)
+        # Changed per run by render_once: remembered here so they come back too.
+        snapshot.set(cycles, "samples", cycles.samples)
+        snapshot.set(cycles, "seed", cycles.seed)
+        snapshot.set(cycles, "time_limit", cycles.time_limit)
         snapshot.set(render, "filepath", render.filepath)
         yield snapshot
     finally:

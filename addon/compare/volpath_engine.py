@@ -59,7 +59,13 @@ def render_runs(native_scene, *, runs: int, samples: int, base_seed: int, time_l
     from volpath_native.render import render
 
     settings = native_scene.settings
-    original = (settings.samples, settings.seed)
+    original = (settings.samples, settings.seed, settings.batch_size)
+    if time_limit > 0:
+        # The renderer stops only between rounds of about threads x batch_size paths; on a small
+        # image that can be hundreds of samples per pixel. Batches of one pass over the image keep
+        # each round short enough for the clock to be honoured.
+        pixels = native_scene.film.width * native_scene.film.height
+        settings.batch_size = int(max(1024, min(settings.batch_size, pixels)))
     results = []
     try:
         for k in range(runs):
@@ -85,5 +91,5 @@ def render_runs(native_scene, *, runs: int, samples: int, base_seed: int, time_l
             if progress:
                 progress(k + 1, runs)
     finally:
-        settings.samples, settings.seed = original
+        settings.samples, settings.seed, settings.batch_size = original
     return results

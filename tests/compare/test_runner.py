@@ -1,0 +1,122 @@
+"""The comparison tool itself: matched settings restored, outputs written, modes, CLI, operator."""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+TINY = (16, 16)
+
+
+@pytest.fixture
+def fog_scene(registered_addon):
+    from examples import cornell_fog
+
+    return cornell_fog.build(resolution=TINY, samples=8)
+
+
+def test_user_settings_restored_and_outputs_written(fog_scene, tmp_path):
+    from addon.compare import runner
+
+    scene = fog_scene
+    scene.render.engine = "BLENDER_EEVEE"  # whatever the user had
+    scene.cycles.samples, scene.cycles.use_denoising, scene.cycles.volume_bounces = 7, True, 3
+    scene.cycles.use_adaptive_sampling = True
+    scene.render.filepath = "//my_frames/"
+    result = runner.compare_scene(scene, runner.CompareOptions(samples=8, runs=2), tmp_path)
+    assert scene.render.engine == "BLENDER_EEVEE"
+    assert (scene.cycles.samples, scene.cycles.use_denoising, scene.cycles.volume_bounces) == (7, True, 3)
+    assert scene.cycles.use_adaptive_sampling and scene.render.filepath == "//my_frames/"
+    assert (scene.render.resolution_x, scene.render.resolution_y) == TINY
+    for key in ("volpath_exr", "cycles_exr", "sheet_png", "report_json", "report_md"):
+        assert Path(result.outputs[key]).is_file(), key
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["engines"]["volpath"]["samples_per_pixel"] == 8
+    assert report["engines"]["cycles"]["samples_per_pixel"] == 8
+    assert report["engines"]["cycles"]["spp_per_second"] > 0
+    assert 0.0 <= report["agreement"]["pixel_fraction_passed"] <= 1.0
+    assert "VolPath vs Cycles" in (tmp_path / "report.md").read_text()
+
+
+def test_cycles_gets_volpath_bounce_limits(fog_scene):
+    from addon.compare import cycles_engine
+
+    limits = cycles_engine.BounceLimits(max_bounces=5, diffuse_bounces=2, glossy_bounces=1,
+                                        transmission_bounces=3, volume_bounces=4, transparent_bounces=6)
+    with cycles_engine.matched_settings(fog_scene, limits, resolution=(8, 8)):
+        c = fog_scene.cycles
+        assert (c.max_bounces, c.diffuse_bounces, c.glossy_bounces, c.transmission_bounces,
+                c.volume_bounces, c.transparent_max_bounces) == (5, 2, 1, 3, 4, 6)
+        assert c.device == "CPU" and not c.use_denoising and not c.use_adaptive_sampling
+        assert c.sample_clamp_direct == 0 and c.sample_clamp_indirect == 0 and not c.volume_biased
+        assert fog_scene.render.resolution_x == 8
+    assert fog_scene.render.resolution_x == TINY[0]
+
+
+def test_equal_time_and_reference(fog_scene, tmp_path):
+    from addon.compare import runner
+    from volpath_native import imageio
+
+    reference = tmp_path / "reference.exr"
+    first = runner.compare_scene(fog_scene, runner.CompareOptions(samples=32, runs=2))
+    imageio.write_exr(reference, first.cycles.statistics.mean.astype(np.float32))
+    budget = 1.0
+    result = runner.compare_scene(fog_scene, runner.CompareOptions(mode="equal-time", seconds=budget, runs=2,
+                                                                   reference=str(reference)), tmp_path / "out")
+    for engine in (result.volpath, result.cycles):
+        assert engine.samples_per_pixel >= 2
+        # Each engine spent about the budget (start-up overhead is allowed, not ten times more).
+        assert 0.5 * budget <= engine.seconds <= budget + 5.0, engine.summary()
+    ref = result.reference_errors
+    assert ref["relmse_volpath"] > 0 and ref["relmse_cycles"] > 0
+    assert ref["error_ratio"] == pytest.approx(ref["relmse_volpath"] / ref["relmse_cycles"])
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert "_image" not in report["reference"] and report["mode"] == "equal-time"
+
+
+def test_bad_options_are_rejected():
+    from addon.compare import runner
+
+    for options in (runner.CompareOptions(runs=1), runner.CompareOptions(mode="fastest"),
+                    runner.CompareOptions(samples=4, runs=8), runner.CompareOptions(mode="equal-time", seconds=0)):
+        with pytest.raises(ValueError):
+            options.validate()
+
+
+def test_reference_of_wrong_size_is_a_clear_error(fog_scene, tmp_path):
+    from addon.compare import runner
+    from volpath_native import imageio
+
+    reference = imageio.write_exr(tmp_path / "ref.exr", np.ones((4, 4, 3), np.float32))
+    with pytest.raises(ValueError, match="reference"):
+        runner.compare_scene(fog_scene, runner.CompareOptions(samples=2, runs=2, reference=str(reference)))
+
+
+def test_operator_runs_headless(fog_scene, tmp_path):
+    bpy = fog_scene.id_data and __import__("bpy")
+    assert hasattr(bpy.ops.volpath, "compare_with_cycles")
+    result = bpy.ops.volpath.compare_with_cycles("EXEC_DEFAULT", samples=4, runs=2, output=str(tmp_path) + "/")
+    assert result == {"FINISHED"}
+    assert (tmp_path / "sheet.png").is_file() and (tmp_path / "report.json").is_file()
+    assert any(Path(image.filepath).name == "sheet.png" for image in bpy.data.images)
+
+
+def test_cli_run(tmp_path, registered_addon):
+    from examples import cornell_fog, scene_builder
+
+    cornell_fog.build(resolution=TINY, samples=4)
+    blend = scene_builder.save(tmp_path / "fog.blend")
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "addon.compare", "run", str(blend), "--out", str(out),
+                           "--spp", "4", "--runs", "2", "--resolution", "12x10"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "sheet_png" in proc.stdout and (out / "sheet.png").is_file()
+    report = json.loads((out / "report.json").read_text())
+    assert report["resolution"] == [12, 10] and report["scene"] == "fog"
+    missing = subprocess.run([sys.executable, "-m", "addon.compare", "run", str(tmp_path / "nope.blend"),
+                              "--out", str(out)], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert missing.returncode == 1 and "no such .blend" in missing.stderr
