@@ -106,9 +106,11 @@ class Integrator:
         n = len(pixel)
         stats = dict(rays=0, shadow_rays=0, vertices=0, paths=n)
         x0, y0, cw, _ = self.crop
-        keys = path_keys(st.seed, pixel, sample)
-        fx = x0 + (pixel % cw) + 0.5 + self.filter.sample(uniform(keys, 0))
-        fy = y0 + (pixel // cw) + 0.5 + self.filter.sample(uniform(keys, 1))
+        px, py = x0 + pixel % cw, y0 + pixel // cw
+        # keyed by the full-frame pixel, so a crop renders exactly the pixels of the full frame
+        keys = path_keys(st.seed, py * self.scene.film.width + px, sample)
+        fx = px + 0.5 + self.filter.sample(uniform(keys, 0))
+        fy = py + 0.5 + self.filter.sample(uniform(keys, 1))
         o, d, tmax = self.camera.generate_rays(fx, fy)
         if self._camera_stack is not None:
             counts = np.repeat(self._camera_stack[None, :], n, axis=0)
@@ -123,11 +125,16 @@ class Integrator:
                       prev_pdf=np.zeros(n), prev_pos=o.copy(), travelled=np.zeros(n),
                       event=zeros_i.copy(), lead=np.zeros(n))
         L = np.zeros((n, 3))
+        self._cancel = cancel
         while len(S):
-            if cancel is not None and cancel():
-                raise Cancelled()
+            self._poll_cancel()
             S = self._iteration(S, L, stats)
         return L, stats
+
+    def _poll_cancel(self):
+        cancel = getattr(self, "_cancel", None)
+        if cancel is not None and cancel():
+            raise Cancelled()
 
     def _u(self, S, offset, idx=None):
         if idx is None:
@@ -185,6 +192,7 @@ class Integrator:
             if len(att):
                 S.beta[att] = S.beta[att] * md.transmittance(sig_t[att], t_seg[att])
 
+        self._poll_cancel()
         # ---- lamps crossed before the end of the segment (they do not block) -------------
         if len(self.lights.hittable_rows):
             reach = np.minimum(t_scatter, t_seg)
@@ -229,6 +237,7 @@ class Integrator:
             S.tat[v] |= (S.volume[v] > st.volume_bounces) | (S.bounce[v] > st.max_bounces)
             alive[v] &= self._russian_roulette(S, v)
 
+        self._poll_cancel()
         # ---- surface hits ------------------------------------------------------------------
         s = np.nonzero(geo & ~scatter)[0]
         if len(s):

@@ -37,21 +37,25 @@ class _Film:
         self.lock = threading.Lock()
 
     def add(self, pixel, values):
-        n = len(self.count)
+        # bincount over the chunk's own pixel range: cost follows the batch, not the resolution
+        lo, hi = int(pixel.min()), int(pixel.max()) + 1
+        local = pixel - lo
         with self.lock:
-            self.count += np.bincount(pixel, minlength=n)
+            self.count[lo:hi] += np.bincount(local, minlength=hi - lo)
             for c in range(3):
-                self.sum[:, c] += np.bincount(pixel, weights=values[:, c], minlength=n)
-                self.sum_sq[:, c] += np.bincount(pixel, weights=values[:, c] ** 2, minlength=n)
+                self.sum[lo:hi, c] += np.bincount(local, weights=values[:, c], minlength=hi - lo)
+                self.sum_sq[lo:hi, c] += np.bincount(local, weights=values[:, c] ** 2, minlength=hi - lo)
 
     def mean(self):
         return self.sum / np.maximum(self.count, 1)[:, None]
 
-    def variance_of_mean(self):
-        n = self.count[:, None]
-        mean = self.mean()
-        var = (self.sum_sq / np.maximum(n, 1) - mean ** 2) * (n / np.maximum(n - 1, 1))
-        return np.maximum(var, 0.0) / np.maximum(n, 1)
+    def variance_of_mean(self, mean):
+        """Unbiased sample variance of each pixel's samples divided by their count."""
+        n = np.maximum(self.count, 1)[:, None]
+        var = self.sum_sq / n
+        var -= mean * mean
+        var *= 1.0 / np.maximum(n - 1, 1)
+        return np.maximum(var, 0.0, out=var)
 
 
 _COUNTERS = ("rays", "shadow_rays", "vertices", "paths")
@@ -84,10 +88,11 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
     cancelled = False
 
     def run(chunk):
+        if cancel is not None and cancel():
+            raise Cancelled()
         pix, smp = chunk
         values, s = integrator.render_paths(pix, smp, cancel)
-        film.add(pix, values)
-        return s
+        return pix, values, s
 
     with ThreadPoolExecutor(max_workers=threads) as pool:
         while done < st.samples and not cancelled:
@@ -95,13 +100,22 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
             pixels = np.tile(np.arange(n_pix, dtype=np.int64), n_smp)
             samples = np.repeat(np.arange(done, done + n_smp, dtype=np.int64), n_pix)
             chunks = [(pixels[k:k + batch], samples[k:k + batch]) for k in range(0, len(pixels), batch)]
+            # A round is committed to the film only when complete, so after a cancel every pixel
+            # still holds the same number of samples.
+            round_film = []
+            futures = [pool.submit(run, c) for c in chunks]
             try:
-                for s in pool.map(run, chunks):
-                    for k in _COUNTERS:
-                        stats[k] += s[k]
+                for f in futures:
+                    round_film.append(f.result())
             except Cancelled:
                 cancelled = True
+                for f in futures:
+                    f.cancel()
                 break
+            for pix, values, s in round_film:
+                film.add(pix, values)
+                for k in _COUNTERS:
+                    stats[k] += s[k]
             done += n_smp
             elapsed = time.perf_counter() - start
             stats.update(seconds=elapsed, samples_per_second=done * n_pix / max(elapsed, 1e-9),
@@ -113,22 +127,21 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
                 progress(done, st.samples, dict(stats))
             if cancel is not None and cancel():
                 cancelled = True
-    if cancelled:
-        # Discard samples of a half-finished round so every pixel has the same count.
-        pass
     elapsed = time.perf_counter() - start
     stats["seconds"] = elapsed
-    image = _image(film, ch, cw)
-    if not np.all(np.isfinite(image)):
-        bad = int(np.count_nonzero(~np.isfinite(image[..., :3]).all(axis=2)))
+    mean = film.mean()
+    if not np.all(np.isfinite(mean)):
+        bad = int(np.count_nonzero(~np.isfinite(mean).all(axis=1)))
         warnings.append(f"{bad} pixels had non-finite values and were set to 0 (please report)")
-        image = np.nan_to_num(image, nan=0.0, posinf=0.0, neginf=0.0)
-    variance = film.variance_of_mean().reshape(ch, cw, 3).astype(np.float32)
+        mean = np.nan_to_num(mean, nan=0.0, posinf=0.0, neginf=0.0)
+    image = _image(film, ch, cw, mean)
+    variance = film.variance_of_mean(mean).reshape(ch, cw, 3).astype(np.float32)
     return RenderResult(image=image, variance=variance, samples=done, seconds=elapsed, stats=stats,
                         warnings=warnings, cancelled=cancelled, crop_offset=(x0, y0))
 
 
-def _image(film: _Film, h: int, w: int) -> np.ndarray:
-    rgb = film.mean().reshape(h, w, 3)
-    alpha = np.where(film.count.reshape(h, w, 1) > 0, 1.0, 0.0)
-    return np.concatenate([rgb, alpha], axis=2).astype(np.float32)
+def _image(film: _Film, h: int, w: int, mean=None) -> np.ndarray:
+    image = np.empty((h, w, 4), dtype=np.float32)
+    image[..., :3] = (film.mean() if mean is None else mean).reshape(h, w, 3)
+    image[..., 3] = (film.count > 0).reshape(h, w)
+    return image
