@@ -196,9 +196,12 @@ class Integrator:
         # ---- lamps crossed before the end of the segment (they do not block) -------------
         if len(self.lights.hittable_rows):
             reach = np.minimum(t_scatter, t_seg)
-            for t_l, radiance, lpdf in self.lights.intersect_lamps(
+            for t_l, radiance, lpdf, camera_visible in self.lights.intersect_lamps(
                     S.prev_pos, S.d, S.travelled, S.travelled + reach):
-                hit = np.nonzero(np.isfinite(t_l))[0]
+                found = np.isfinite(t_l)
+                if not camera_visible:
+                    found &= S.bounce > 0  # camera rays do not see this lamp
+                hit = np.nonzero(found)[0]
                 if not len(hit):
                     continue
                 w = np.where(S.prev_pdf[hit] > 0, _power_heuristic(S.prev_pdf[hit], lpdf[hit]), 1.0)
@@ -217,8 +220,10 @@ class Integrator:
         escaped = ~geo & ~scatter
         e = np.nonzero(escaped)[0]
         if len(e):
-            for radiance, lpdf in self.lights.escaped_emission(S.d[e]):
+            for radiance, lpdf, camera_visible in self.lights.escaped_emission(S.d[e]):
                 w = np.where(S.prev_pdf[e] > 0, _power_heuristic(S.prev_pdf[e], lpdf), 1.0)
+                if not camera_visible:
+                    w = w * (S.bounce[e] > 0)
                 L[S.pid[e]] += S.beta[e] * radiance * w[:, None]
 
         alive = ~escaped

@@ -87,6 +87,7 @@ class LightSet:
         self.spot_smooth = np.zeros(n)      # 0: not a spot
         self.two_sided = np.zeros(n, bool)
         self.triangle = np.full(n, -1, np.int64)
+        self.camera_visible = np.ones(n, bool)
         power = np.zeros(n)
         for i, row in enumerate(rows):
             for key, value in row.items():
@@ -127,6 +128,12 @@ class LightSet:
 
     # -----------------------------------------------------------------------------------------
     def _lamp_rows(self, light) -> list[dict]:
+        rows = self._lamp_rows_geometry(light)
+        for row in rows:
+            row["camera_visible"] = bool(getattr(light, "visible_camera", True))
+        return rows
+
+    def _lamp_rows_geometry(self, light) -> list[dict]:
         if isinstance(light, SunLight):
             if not np.any(light.irradiance > 0):
                 return []
@@ -302,21 +309,23 @@ class LightSet:
         return radiance, pdf
 
     def escaped_emission(self, directions):
-        """List of (radiance (N,3), light pdf (N,)) for distant emitters seen along directions."""
+        """List of (radiance (N,3), light pdf (N,), camera_visible) for distant emitters seen
+        along directions."""
         out = []
         if self.world_row >= 0:
             n = len(directions)
             out.append((np.broadcast_to(self.world_radiance, (n, 3)),
-                        np.full(n, self.select_prob[self.world_row] / (4.0 * np.pi))))
+                        np.full(n, self.select_prob[self.world_row] / (4.0 * np.pi)), True))
         for row in self.sun_rows:
             inside = directions @ self.normal[row] >= self.cos_half[row]
             pdf = self.select_prob[row] / (2.0 * np.pi * (1.0 - self.cos_half[row]))
-            out.append((inside[:, None] * self.strength[row], inside * pdf))
+            out.append((inside[:, None] * self.strength[row], inside * pdf, self.camera_visible[row]))
         return out
 
     def intersect_lamps(self, origins, directions, tmin, tmax):
         """Emission of lamps (spheres, soft point disks, area lights) crossed by the rays within
-        (tmin, tmax]: list of (t (N,), radiance (N,3), light pdf (N,)) per lamp, inf where missed.
+        (tmin, tmax]: list of (t (N,), radiance (N,3), light pdf (N,), camera_visible) per lamp,
+        t = inf where missed.
         origins are the previous scattering vertices (the reference point of the light pdf)."""
         out = []
         for row in self.hittable_rows:
@@ -366,7 +375,7 @@ class LightSet:
                 dirs = light_to_origin / np.maximum(np.linalg.norm(light_to_origin, axis=1), 1e-30)[:, None]
                 mask = self._spot_mask(np.full(n, row), dirs)
             radiance = found[:, None] * self.strength[row] * np.asarray(mask).reshape(-1, 1)
-            out.append((t, radiance, np.where(found, pdf * self.select_prob[row], 0.0)))
+            out.append((t, radiance, np.where(found, pdf * self.select_prob[row], 0.0), self.camera_visible[row]))
         return out
 
 

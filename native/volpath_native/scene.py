@@ -196,6 +196,8 @@ class PointLight:
 
     radius 0: radiant intensity I = power / (4 pi) W/sr (Cycles, scene/light.cpp).
     soft_falloff: Blender 4.0+'s default for sphere lights (falloff 1/(d^2 + r^2) near the light).
+    visible_camera: whether camera rays see the lamp itself (Blender's Object.visible_camera;
+        lighting is unaffected). Added in format version 1 files as an optional field.
     """
 
     name: str
@@ -203,6 +205,7 @@ class PointLight:
     power: np.ndarray
     radius: float = 0.0
     soft_falloff: bool = True
+    visible_camera: bool = True
 
     def __post_init__(self):
         self.position = vec3(self.position, f"light '{self.name}' position")
@@ -246,6 +249,7 @@ class AreaLight:
     axis_v: np.ndarray
     power: np.ndarray
     shape: str = "square"
+    visible_camera: bool = True  # camera rays see the emitting surface (Object.visible_camera)
 
     def __post_init__(self):
         self.position = vec3(self.position, f"light '{self.name}' position")
@@ -272,6 +276,7 @@ class SunLight:
     direction: np.ndarray
     irradiance: np.ndarray
     angle: float = 0.0
+    visible_camera: bool = True  # camera rays see the sun disk (angle > 0; Object.visible_camera)
 
     def __post_init__(self):
         self.direction = unit(self.direction, f"light '{self.name}' direction")

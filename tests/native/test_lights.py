@@ -126,3 +126,18 @@ def test_emissive_mesh_two_sided_and_one_sided():
     _check(_floor_scene(meshes=[quad], materials=[two]), expected)
     one = Material("emit", base_color=0.0, emission=radiance, two_sided_emission=False)
     assert np.all(render(_floor_scene(meshes=[quad], materials=[one], samples=4)).image[..., :3] == 0)
+
+
+def test_lamps_hidden_from_camera_still_light_the_scene():
+    """visible_camera=False hides the lamp from camera rays only (Blender's Object.visible_camera)."""
+    from volpath_native import Film
+    light = AreaLight("a", [0, 0, 1.0], [0.5, 0, 0], [0, -0.5, 0], POWER, visible_camera=False)
+    assert np.allclose(light.direction, [0, 0, 1])  # facing the camera above it
+    sky_cam = Camera(camera_at([0, 0, 3]), fov=np.radians(30), clip_start=0.0)
+    scene = Scene(camera=sky_cam, film=Film(8, 8), lights=[light], settings=RenderSettings(samples=4))
+    assert np.all(render(scene).image[..., :3] == 0)
+    light.visible_camera = True
+    assert render(scene).image[..., :3].max() > 0
+    hidden = AreaLight("a", [0, 0, H], [1.2, 0, 0], [0, 1.2, 0], POWER, visible_camera=False)
+    corners = [np.array([sx * 0.6, sy * 0.6, H]) for sx, sy in [(-1, -1), (1, -1), (1, 1), (-1, 1)]]
+    _check(_floor_scene([hidden]), _polygon_irradiance(corners, POWER / (np.pi * 1.44)))
