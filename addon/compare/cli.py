@@ -5,12 +5,14 @@ Runs with the `bpy` module (Blender as a Python module) from the repository root
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import sys
 import time
 from pathlib import Path
 
 # The demo: small enough for < 5 min on 2 cores including Blender start-up, big enough to see.
-DEMO_RESOLUTION = (96, 96)
+DEMO_RESOLUTION = (128, 128)
 DEMO_SAMPLES = 128
 DEMO_RUNS = 8
 
@@ -62,6 +64,26 @@ class TextProgress:
         self.stream.flush()
 
 
+@contextlib.contextmanager
+def quiet_stdout():
+    """Silence C-level stdout (Cycles prints a status line per sample) so the progress bar on
+    stderr stays readable; Python's own prints after the block are unaffected."""
+    sys.stdout.flush()
+    try:
+        saved = os.dup(1)
+    except OSError:  # no real stdout (embedded): nothing to silence
+        yield
+        return
+    try:
+        with open(os.devnull, "w") as devnull:
+            os.dup2(devnull.fileno(), 1)
+            yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 def _register_addon():
     """Register the add-on (engine, settings at scene.volpath, exporter) in this bpy session."""
     import bpy
@@ -88,10 +110,11 @@ def main(argv=None) -> int:
                                     reference=str(args.reference) if args.reference else None)
     try:
         options.validate()
-        if args.command == "demo":
-            result = run_demo(args.out, options)
-        else:
-            result = runner.compare_file(args.blend, options, args.out, TextProgress())
+        with quiet_stdout():
+            if args.command == "demo":
+                result = run_demo(args.out, options)
+            else:
+                result = runner.compare_file(args.blend, options, args.out, TextProgress())
     except cycles_engine.CyclesUnavailable as error:
         print(f"error: {error}", file=sys.stderr)
         return 3

@@ -127,6 +127,11 @@ class _Progress:
         self.done += 1
         self.report(message)
 
+    def at(self, base: float, message: str) -> None:
+        """Report a fractional position `base` steps in (no step is consumed)."""
+        if self.callback:
+            self.callback(min(base / self.total, 1.0), message)
+
     def report(self, message: str) -> None:
         if self.callback:
             self.callback(min(self.done / self.total, 1.0), message)
@@ -137,9 +142,10 @@ def compare_scene(scene, options: CompareOptions, out_dir=None, progress: Option
     """Render `scene` (a bpy Scene) with both engines, compare, and write outputs to `out_dir`."""
     options.validate()
     cycles_engine.require_cycles(scene)
-    bar = _Progress(progress, 2 * options.runs + 1)
+    bar = _Progress(progress, 2 * options.runs + 2)
     bar.report("exporting the scene for VolPath")
     native_scene, warnings = volpath_engine.export(scene, options.resolution)
+    bar.step("exported")
     bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
     equal_time = options.mode == "equal-time"
     per_run_seconds = options.seconds / options.runs if equal_time else 0.0
@@ -147,7 +153,8 @@ def compare_scene(scene, options: CompareOptions, out_dir=None, progress: Option
     volpath_runs = volpath_engine.render_runs(
         native_scene, runs=options.runs, samples=options.samples_per_run, base_seed=options.seed,
         time_limit=per_run_seconds, cancel=cancel,
-        progress=lambda k, n: bar.step(f"VolPath run {k}/{n}"))
+        progress=lambda k, n: bar.at(1 + k, f"VolPath run {min(int(k) + 1, n)}/{n}"))
+    bar.done = 1 + options.runs
     cycles_runs = []
     with cycles_engine.matched_settings(scene, bounces, options.resolution):
         for k in range(options.runs):
@@ -236,7 +243,7 @@ def sheet_panels(result: CompareResult, exposure: Optional[float] = None) -> lis
         sheet.render_panel("Cycles", c.statistics.mean,
                            exposure, f"{c.samples_per_pixel} spp, {c.seconds:.1f} s"),
         sheet.difference_panel("(VolPath - Cycles) / mean", agreement.relative_difference,
-                               caption=f"{100 * agreement.pixel.fraction_passed:.1f}% px pass z-test"),
+                               caption=f"{100 * agreement.pixel.fraction_passed:.1f}% px pass the t-test"),
     ]]
     ref = result.reference_errors
     if ref and "_image" in ref:

@@ -50,11 +50,12 @@ def export(scene, resolution: Optional[tuple] = None):
 
 
 def render_runs(native_scene, *, runs: int, samples: int, base_seed: int, time_limit: float = 0.0,
-                progress: Optional[Callable[[int, int], None]] = None,
+                progress: Optional[Callable[[float, int], None]] = None,
                 cancel: Optional[Callable[[], bool]] = None) -> list:
     """`runs` independent renders of the exported scene with seeds base_seed, base_seed + 1, ...
 
     time_limit > 0: each run renders until that many seconds have passed (equal-time mode).
+    progress(runs_done, runs) is called during each run with a fractional runs_done.
     """
     from volpath_native.render import render
 
@@ -79,7 +80,12 @@ def render_runs(native_scene, *, runs: int, samples: int, base_seed: int, time_l
                     return True
                 return deadline is not None and time.perf_counter() >= deadline
 
-            result = render(native_scene, cancel=should_stop)
+            def run_progress(done, total, stats, k=k, start=start):
+                if progress:
+                    fraction = (time.perf_counter() - start) / time_limit if time_limit > 0 else done / max(total, 1)
+                    progress(k + min(fraction, 1.0), runs)
+
+            result = render(native_scene, cancel=should_stop, progress=run_progress)
             seconds = time.perf_counter() - start
             if cancel is not None and cancel():
                 raise InterruptedError("comparison cancelled")

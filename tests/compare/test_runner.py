@@ -96,7 +96,8 @@ def test_reference_of_wrong_size_is_a_clear_error(fog_scene, tmp_path):
 
 
 def test_operator_runs_headless(fog_scene, tmp_path):
-    bpy = fog_scene.id_data and __import__("bpy")
+    import bpy
+
     assert hasattr(bpy.ops.volpath, "compare_with_cycles")
     result = bpy.ops.volpath.compare_with_cycles("EXEC_DEFAULT", samples=4, runs=2, output=str(tmp_path) + "/")
     assert result == {"FINISHED"}
