@@ -282,3 +282,30 @@ def test_absorbing_volume_matches_cycles_transmittance(openvdb, tmp_path, clean_
     # Where the reference is clear, Cycles must be too (catches a shifted or mis-scaled blob).
     clear = reference > 0.9999
     assert np.all(mean[clear] > 0.999), np.argwhere(clear & (mean <= 0.999))
+
+
+def test_collection_instances_get_their_own_transform(openvdb, tmp_path, clean_scene):
+    path = write_vdb(openvdb, tmp_path / "smoke.vdb", [float_grid(openvdb, "density", procedural_density())])
+    collection = bpy.data.collections.new("SmokeSource")
+    bpy.context.scene.collection.children.link(collection)
+    volume = bpy.data.volumes.new("Inst")
+    volume.filepath = str(path)
+    source = bpy.data.objects.new("Inst", volume)
+    collection.objects.link(source)
+    empty = bpy.data.objects.new("Instancer", None)
+    empty.instance_type = "COLLECTION"
+    empty.instance_collection = collection
+    empty.location = (5.0, 0.0, 0.0)
+    empty.scale = (2.0, 2.0, 2.0)
+    bpy.context.scene.collection.objects.link(empty)
+    try:
+        warnings = []
+        exported = evg.export_volume_objects(bpy.context.evaluated_depsgraph_get(), warnings)
+        assert len(exported) == 2, warnings
+        original, instance = sorted(exported, key=lambda e: e.object_to_world[0, 3])
+        np.testing.assert_allclose(instance.grids["density"].index_to_world,
+                                   np.array(empty.matrix_world) @ original.grids["density"].index_to_world, atol=1e-6)
+        assert instance.density_factor == pytest.approx(original.density_factor / 2.0)
+    finally:
+        bpy.data.objects.remove(empty)
+        bpy.data.collections.remove(collection)
