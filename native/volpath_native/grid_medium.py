@@ -24,6 +24,15 @@ scatter-vs-null decision with throughput-weighted channel pdf, absorption never 
 in the weights) and pbrt-v4's SampleT_maj / DDAMajorantIterator (src/pbrt/media.h) for walking the
 majorant grid cell by cell. Everything is vectorised over batches of rays (SoA arrays); the only
 Python loop is over tracking *events*, with finished rays compacted away.
+
+Using it from a path tracer (all distances from the segment origin, directions unit length):
+- free flight on a segment [0, t_seg]: `f = medium.sample_free_flight(o, d, t_seg, rng, beta)`;
+  add `beta * f.emission` to L; multiply beta by `f.weight`; where `f.scattered`, the path
+  scatters at `o + d * f.t` with the medium's HG phase `g` (f.weight already holds sigma_s/pdf).
+- shadow rays: multiply by `medium.transmittance(o, d, dist, rng)`.
+- a homogeneous medium overlapping the grid: sample its distance analytically first and track
+  the grid only up to it (the earlier of two independent collision processes is the first event
+  of their sum); shadow transmittances multiply.
 """
 from __future__ import annotations
 
@@ -141,6 +150,7 @@ class GridMedium:
         self.shape = np.array(self.density.shape, dtype=np.int64)
         shift = np.eye(4)
         shift[:3, 3] = -1.0  # padded index p corresponds to original index p - 1
+        self.source_index_to_world = transform
         self.index_to_world = transform @ shift
         self.world_to_index = np.linalg.inv(self.index_to_world)
 
@@ -150,7 +160,8 @@ class GridMedium:
             self.absorb_grid = pad(self._checked_rgb_grid(absorb_grid, density.shape, "absorb_grid"))
         if emission_grid is not None:
             self.emission_grid = pad(self._checked_rgb_grid(emission_grid, density.shape, "emission_grid"))
-        self._build_majorant_grid(int(majorant_resolution))
+        self.majorant_resolution = int(majorant_resolution)
+        self._build_majorant_grid(self.majorant_resolution)
 
     # ------------------------------------------------------------------------------------------
     # Construction helpers
@@ -239,6 +250,35 @@ class GridMedium:
         corners = np.array([[x, y, z, 1.0] for x in (0, 1) for y in (0, 1) for z in (0, 1)])
         corners[:, :3] *= (self.shape - 1)
         return (corners @ self.index_to_world.T)[:, :3]
+
+    # ------------------------------------------------------------------------------------------
+    # Serialisation (for the .vpscene format: a JSON header plus named arrays)
+    # ------------------------------------------------------------------------------------------
+    def to_record(self):
+        """(header, arrays): JSON-ready scalars/lists and float32 arrays that `from_record` turns
+        back into an identical medium (grids stored without the internal padding)."""
+        inner = (slice(1, -1),) * 3
+        header = {"type": "grid", "name": self.name, "sigma_s": self.sigma_s.tolist(),
+                  "sigma_a": self.sigma_a.tolist(), "g": self.g, "emission": self.emission.tolist(),
+                  "index_to_world": self.source_index_to_world.tolist(),
+                  "majorant_resolution": self.majorant_resolution}
+        arrays = {"density": self.density[inner]}
+        for key in ("scatter_grid", "absorb_grid", "emission_grid"):
+            grid = getattr(self, key)
+            if grid is not None:
+                arrays[key] = grid[inner]
+        return header, arrays
+
+    @classmethod
+    def from_record(cls, header: dict, arrays: dict, debug: bool = False) -> "GridMedium":
+        if header.get("type") != "grid" or "density" not in arrays:
+            raise SceneError(f"grid medium record '{header.get('name')}' is incomplete")
+        return cls(header["name"], arrays["density"], np.asarray(header["index_to_world"]),
+                   header["sigma_s"], header["sigma_a"], g=header.get("g", 0.0),
+                   emission=header.get("emission", 0.0), scatter_grid=arrays.get("scatter_grid"),
+                   absorb_grid=arrays.get("absorb_grid"), emission_grid=arrays.get("emission_grid"),
+                   majorant_resolution=header.get("majorant_resolution", DEFAULT_MAJORANT_RESOLUTION),
+                   debug=debug)
 
     def memory_bytes(self) -> int:
         arrays = [self.density, self.scatter_grid, self.absorb_grid, self.emission_grid, self.majorant_grid,

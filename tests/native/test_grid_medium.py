@@ -303,3 +303,23 @@ def test_results_are_reproducible_for_a_seed():
     second = medium.sample_free_flight(origins, dirs, length, np.random.default_rng(42))
     np.testing.assert_array_equal(first.t, second.t)
     np.testing.assert_array_equal(first.weight, second.weight)
+
+
+def test_record_round_trip_gives_an_identical_medium():
+    rng = np.random.default_rng(13)
+    density = rng.random((6, 5, 4)).astype(np.float32)
+    color = rng.random((6, 5, 4, 3)).astype(np.float32)
+    glow = rng.random((6, 5, 4, 3)).astype(np.float32)
+    medium = GridMedium.with_color_grid("rec", density, color, rotated_transform(), color=(0.9, 0.8, 0.7),
+                                        density_scale=2.0, absorption_color=0.1, g=0.3, emission_grid=glow,
+                                        majorant_resolution=3)
+    header, arrays = medium.to_record()
+    import json
+    copy = GridMedium.from_record(json.loads(json.dumps(header)), arrays)
+    points = rng.uniform(*medium.world_bounds(), size=(1000, 3))
+    for a, b in zip(medium.coefficients(points), copy.coefficients(points)):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(medium.majorant_grid, copy.majorant_grid)
+    assert copy.g == medium.g
+    with pytest.raises(SceneError):
+        GridMedium.from_record({"type": "grid", "name": "x"}, {})
