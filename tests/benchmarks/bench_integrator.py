@@ -1,0 +1,158 @@
+"""Benchmark: Cornell box + homogeneous fog + point light at 256x256 (not collected by pytest).
+
+Prints samples/s, path vertices/s and rays/s of the renderer, the raw embreex throughput on the
+same geometry and batch size in the same run, their ratio (tracing efficiency), the 1 -> 2 thread
+speedup, peak traced memory for two batch sizes and two resolutions, and a profile of where the
+time goes.  Usage: python tests/benchmarks/bench_integrator.py [--spp N] [--quick]
+"""
+from __future__ import annotations
+
+import argparse
+import cProfile
+import io
+import pstats
+import threading
+import time
+import tracemalloc
+
+import numpy as np
+
+from volpath_native import (Camera, Film, Material, Medium, Mesh, PointLight, RenderSettings, Scene, render)
+from volpath_native.accel import Accelerator
+
+
+def _quad(p0, p1, p2, p3):
+    return [p0, p1, p2, p3], [[0, 1, 2], [0, 2, 3]]
+
+
+def cornell_fog_scene(resolution=256, spp=16, threads=1, batch_size=1 << 16) -> Scene:
+    """The classic box (5.5 m, white/red/green walls, a tall and a short block) filled with fog,
+    lit by a point light under the ceiling, seen from the open front."""
+    s = 5.5
+    meshes, materials = [], [Material("white", base_color=0.73), Material("red", base_color=[0.65, 0.05, 0.05]),
+                             Material("green", base_color=[0.12, 0.45, 0.15]),
+                             Material("fog", surface="null", medium=0)]
+
+    def add(name, quads, mat):
+        verts, tris = [], []
+        for q in quads:
+            v, t = _quad(*[np.array(p, float) for p in q])
+            tris += [[a + len(verts) for a in tri] for tri in t]
+            verts += v
+        meshes.append(Mesh(name, np.array(verts), np.array(tris), np.full(len(tris), mat)))
+
+    add("floor_ceiling_back", [[(0, 0, 0), (s, 0, 0), (s, s, 0), (0, s, 0)],          # floor (z up)
+                               [(0, 0, s), (0, s, s), (s, s, s), (s, 0, s)],          # ceiling
+                               [(0, s, 0), (s, s, 0), (s, s, s), (0, s, s)]], 0)      # back wall
+    add("left", [[(0, 0, 0), (0, s, 0), (0, s, s), (0, 0, s)]], 1)
+    add("right", [[(s, 0, 0), (s, 0, s), (s, s, s), (s, s, 0)]], 2)
+
+    def block(name, x0, y0, w, h):
+        c = [(x0, y0), (x0 + w, y0), (x0 + w, y0 + w), (x0, y0 + w)]
+        quads = [[(*c[i], 0), (*c[(i + 1) % 4], 0), (*c[(i + 1) % 4], h), (*c[i], h)] for i in range(4)]
+        quads.append([(*c[0], h), (*c[1], h), (*c[2], h), (*c[3], h)])
+        add(name, quads, 0)
+    block("tall", 1.0, 2.8, 1.6, 3.3)
+    block("short", 3.0, 1.0, 1.6, 1.65)
+    # the fog fills the room through a closed null box slightly inside the walls
+    e = 0.01
+    lo, hi = np.array([e, e, e]), np.array([s - e, s - e, s - e])
+    v = np.array([[lo[0], lo[1], lo[2]], [hi[0], lo[1], lo[2]], [hi[0], hi[1], lo[2]], [lo[0], hi[1], lo[2]],
+                  [lo[0], lo[1], hi[2]], [hi[0], lo[1], hi[2]], [hi[0], hi[1], hi[2]], [lo[0], hi[1], hi[2]]])
+    f = np.array([[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4], [2, 3, 7], [2, 7, 6],
+                  [1, 2, 6], [1, 6, 5], [0, 4, 7], [0, 7, 3]])
+    meshes.append(Mesh("fog", v, f, np.full(12, 3)))
+    cam = np.eye(4)
+    cam[:3, :3] = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]  # columns: right +x, up +z, back -y (looks along +y)
+    cam[:3, 3] = [s / 2, -10.0, s / 2]
+    return Scene(camera=Camera(cam, fov=np.radians(32)), film=Film(resolution, resolution), meshes=meshes,
+                 materials=materials, media=[Medium("fog", sigma_s=0.08, sigma_a=0.02, g=0.3)],
+                 lights=[PointLight("lamp", [s / 2, s / 2, s - 0.3], power=1500.0, radius=0.0)],
+                 settings=RenderSettings(samples=spp, seed=0, max_bounces=12, diffuse_bounces=4, volume_bounces=4,
+                                         threads=threads, batch_size=batch_size))
+
+
+def raw_embree_rays_per_second(scene: Scene, batch: int, threads: int, repeats: int = 8) -> dict:
+    """Closest-hit and occlusion throughput of embreex alone on the same triangles and batch size
+    (rays from random points in the room in random directions, like the renderer's)."""
+    accel = Accelerator(scene.meshes)
+    rng = np.random.default_rng(0)
+    o = (rng.random((batch, 3)) * 5.4 + 0.05).astype(np.float32)
+    d = rng.normal(size=(batch, 3))
+    d = (d / np.linalg.norm(d, axis=1)[:, None]).astype(np.float32)
+    tmax = np.full(batch, 3.0)
+    out = {}
+    for name, fn in (("closest", lambda: accel.intersect(o, d)), ("occluded", lambda: accel.occluded(o, d, tmax))):
+        fn()
+
+        def work():
+            for _ in range(repeats):
+                fn()
+        start = time.perf_counter()
+        ts = [threading.Thread(target=work) for _ in range(threads)]
+        for t in ts:
+            t.start()
+        for t in ts:
+            t.join()
+        out[name] = threads * repeats * batch / (time.perf_counter() - start)
+    return out
+
+
+def run(spp: int, batch: int, profile: bool) -> None:
+    print(f"Cornell box + homogeneous fog + point light, 256x256, {spp} spp, batch {batch}")
+    results = {}
+    for threads in (1, 2):
+        scene = cornell_fog_scene(spp=spp, threads=threads, batch_size=batch)
+        r = render(scene)
+        st = r.stats
+        raw = raw_embree_rays_per_second(scene, batch, threads)
+        raw_mix = (st["rays"] + st["shadow_rays"]) / (st["rays"] / raw["closest"] + st["shadow_rays"] / raw["occluded"])
+        results[threads] = r
+        print(f"  threads={threads}: {r.seconds:6.2f} s  {st['samples_per_second'] / 1e3:7.1f} k samples/s  "
+              f"{st['vertices_per_second'] / 1e6:5.2f} M vertices/s  {st['rays_per_second'] / 1e6:5.2f} M rays/s "
+              f"(closest {st['rays'] / r.seconds / 1e6:.2f} M + shadow {st['shadow_rays'] / r.seconds / 1e6:.2f} M)")
+        print(f"             raw embreex: closest {raw['closest'] / 1e6:5.2f} M rays/s, occluded "
+              f"{raw['occluded'] / 1e6:5.2f} M rays/s, same mix {raw_mix / 1e6:5.2f} M rays/s -> "
+              f"tracing efficiency {st['rays_per_second'] / raw_mix:.3f}")
+    print(f"  speedup 1 -> 2 threads: {results[1].seconds / results[2].seconds:.2f}x")
+    diff = np.abs(results[1].image - results[2].image).max()
+    print(f"  images identical across thread counts: max |diff| = {diff:.2e}")
+
+    # peak memory: traced numpy allocations, bounded by the batch (film arrays scale with pixels)
+    for res, b in ((128, 1 << 14), (128, 1 << 16), (256, 1 << 14), (256, 1 << 16)):
+        scene = cornell_fog_scene(resolution=res, spp=4, threads=1, batch_size=b)
+        tracemalloc.start()
+        render(scene)
+        _, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        film_bytes = res * res * 7 * 8
+        print(f"  peak traced memory {res}x{res}, batch {b:6d}: {peak / 2 ** 20:6.1f} MiB "
+              f"(film accumulators {film_bytes / 2 ** 20:.1f} MiB)")
+
+    if profile:
+        # cProfile sees only its own thread: trace one batch directly in this thread
+        from volpath_native.integrator import Integrator
+        scene = cornell_fog_scene(spp=1, threads=1, batch_size=batch)
+        integrator = Integrator(scene)
+        n = min(batch, 256 * 256)
+        prof = cProfile.Profile()
+        prof.enable()
+        integrator.render_paths(np.arange(n), np.zeros(n, np.int64))
+        prof.disable()
+        s = io.StringIO()
+        pstats.Stats(prof, stream=s).sort_stats("tottime").print_stats(22)
+        print(f"  profile of one batch of {n} paths (1 thread, by own time):")
+        print("\n".join("    " + line for line in s.getvalue().splitlines()[6:34]))
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--spp", type=int, default=16)
+    parser.add_argument("--batch", type=int, default=1 << 16)
+    parser.add_argument("--quick", action="store_true", help="4 spp, no profile")
+    args = parser.parse_args(argv)
+    run(4 if args.quick else args.spp, args.batch, profile=not args.quick)
+
+
+if __name__ == "__main__":
+    main()
