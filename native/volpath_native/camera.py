@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from .scene import Camera, Film, SceneError
+from .vec import norm
 
 
 def crop_window(film: Film) -> tuple[int, int, int, int]:
@@ -61,7 +62,7 @@ class CameraModel:
         cam = self.camera
         if cam.projection == "perspective":
             local = np.stack([x, y, -np.ones(n)], axis=1)
-            length = np.linalg.norm(local, axis=1)
+            length = norm(local)
             local_dir = local / length[:, None]
             z = 1.0 / length  # |camera-space z| of the unit direction
             origins_local = local_dir * (cam.clip_start / z)[:, None]
@@ -71,6 +72,6 @@ class CameraModel:
             local_dir = np.tile([0.0, 0.0, -1.0], (n, 1))
             tmax = np.full(n, cam.clip_end - cam.clip_start)
         directions = local_dir @ self.rotation.T
-        directions /= np.linalg.norm(directions, axis=1)[:, None]
+        directions /= norm(directions)[:, None]
         origins = origins_local @ self.rotation.T + self.position
         return origins, directions, tmax

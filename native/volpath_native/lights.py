@@ -24,13 +24,10 @@ import numpy as np
 from .accel import Accelerator
 from .sampling import concentric_disk, local_to_world, uniform_cone, uniform_sphere
 from .scene import AreaLight, PointLight, Scene, SpotLight, SunLight
+from .vec import any_positive, dot as _dot, norm
 
 POINT, SPHERE, DISK, AREA_RECT, AREA_ELLIPSE, SUN, TRIANGLE, WORLD = range(8)
 _HITTABLE = (SPHERE, DISK, AREA_RECT, AREA_ELLIPSE)
-
-
-def _dot(a, b):
-    return np.einsum("ij,ij->i", a, b)
 
 
 def _smoothstep(f):
@@ -69,7 +66,7 @@ class LightSet:
         self.n_lamps = len(rows)
         tri_emissive = np.zeros(accel.triangle_count, dtype=bool)
         if len(accel.material_ids) and len(emission):
-            tri_emissive = np.any(emission[accel.material_ids] > 0, axis=1)
+            tri_emissive = any_positive(emission[accel.material_ids])
         self.emissive_tris = np.nonzero(tri_emissive)[0]
         self.world_radiance = scene.world.background.astype(np.float64)
         n_tri = len(self.emissive_tris)
@@ -204,7 +201,7 @@ class LightSet:
 
     def _to_light(self, rows, p):
         to = self.position[rows] - p
-        d = np.linalg.norm(to, axis=1)
+        d = norm(to)
         return to / np.maximum(d, 1e-30)[:, None], d
 
     def _sample_point(self, rows, p, u1, u2):
@@ -221,7 +218,7 @@ class LightSet:
         offset = local_to_world(light_n, x * radius, y * radius, np.zeros(len(rows)))
         y_pt = self.position[rows] + offset
         to = y_pt - p
-        dist = np.linalg.norm(to, axis=1)
+        dist = norm(to)
         wi = to / np.maximum(dist, 1e-30)[:, None]
         cos_l = np.maximum(_dot(light_n, -wi), 0.0)
         pdf = np.where(cos_l > 0, dist * dist / np.maximum(cos_l * np.pi * radius * radius, 1e-30), 0.0)
@@ -260,7 +257,7 @@ class LightSet:
 
     def _area_measure(self, rows, p, y_pt, normal, one_sided):
         to = y_pt - p
-        dist = np.linalg.norm(to, axis=1)
+        dist = norm(to)
         wi = to / np.maximum(dist, 1e-30)[:, None]
         cos_l = _dot(normal, -wi)
         cos_eff = np.where(one_sided, np.maximum(cos_l, 0.0), np.abs(cos_l))
@@ -343,7 +340,7 @@ class LightSet:
                 light_to_origin = origins - c
             elif kind == DISK:
                 light_n = origins - c
-                dist_c = np.linalg.norm(light_n, axis=1)
+                dist_c = norm(light_n)
                 light_n = light_n / np.maximum(dist_c, 1e-30)[:, None]
                 t, cos_l = _ray_plane(origins, directions, c, light_n)
                 hit_pt = origins + directions * np.where(np.isfinite(t), t, 0.0)[:, None]
@@ -372,7 +369,7 @@ class LightSet:
                 continue
             mask = 1.0
             if light_to_origin is not None:
-                dirs = light_to_origin / np.maximum(np.linalg.norm(light_to_origin, axis=1), 1e-30)[:, None]
+                dirs = light_to_origin / np.maximum(norm(light_to_origin), 1e-30)[:, None]
                 mask = self._spot_mask(np.full(n, row), dirs)
             radiance = found[:, None] * self.strength[row] * np.asarray(mask).reshape(-1, 1)
             out.append((t, radiance, np.where(found, pdf * self.select_prob[row], 0.0), self.camera_visible[row]))

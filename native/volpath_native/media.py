@@ -12,6 +12,7 @@ import numpy as np
 
 from .accel import Accelerator
 from .scene import Scene
+from .vec import norm, sum3
 
 _WALK_DIRECTION = np.array([0.5773, 0.5774, 0.5775]) / np.linalg.norm([0.5773, 0.5774, 0.5775])
 
@@ -122,12 +123,12 @@ def channel_probabilities(beta: np.ndarray, sigma_s: np.ndarray, sigma_t: np.nda
     uniform share so every channel that carries energy can be sampled."""
     albedo = np.where(sigma_t > 0, sigma_s / np.where(sigma_t > 0, sigma_t, 1.0), 0.0)
     w = np.abs(beta) * albedo
-    s = w.sum(axis=1, keepdims=True)
+    s = sum3(w)[:, None]
     w = np.where(s > 0, w / np.where(s > 0, s, 1.0), 1.0 / 3.0)
     p = 0.9 * w + 0.1 / 3.0
     if valid is not None:
         p = p * valid
-        s = p.sum(axis=1, keepdims=True)
+        s = sum3(p)[:, None]
         p = np.where(s > 0, p / np.where(s > 0, s, 1.0), 0.0)
     return p
 
@@ -148,7 +149,7 @@ def distance_pdf(sigma_t, p, t):
     """Channel-averaged free-flight density at t and survival probability beyond t."""
     tt = np.where(np.isfinite(t), t, 0.0)[:, None]
     tr = np.where(np.isfinite(t)[:, None], np.exp(-sigma_t * tt), (sigma_t <= 0).astype(np.float64))
-    return (p * sigma_t * tr).sum(axis=1), (p * tr).sum(axis=1), tr
+    return sum3(p * sigma_t * tr), sum3(p * tr), tr
 
 
 def sample_distance_truncated(sigma_t, p, u_channel, u, t_end):
@@ -169,7 +170,7 @@ def truncated_distance_pdf(sigma_t, p, t, t_end):
     small = sigma_t * np.where(finite, te, np.inf) < 1e-9
     dens = np.where(small, 1.0 / np.where(finite & (te > 0), te, np.inf),
                     sigma_t * np.exp(-sigma_t * t[:, None]) / np.where(mass > 0, mass, 1.0))
-    return (p * dens).sum(axis=1)
+    return sum3(p * dens)
 
 
 def transmittance(sigma_t, distance):
@@ -195,7 +196,7 @@ def emission_integral(emission, sigma_t, distance):
 def equiangular_setup(origins, directions, t_end, light_pos):
     delta = np.einsum("ij,ij->i", light_pos - origins, directions)
     closest = origins + directions * delta[:, None]
-    D = np.maximum(np.linalg.norm(light_pos - closest, axis=1), 1e-7)
+    D = np.maximum(norm(light_pos - closest), 1e-7)
     theta_a = np.arctan2(-delta, D)
     theta_b = np.where(np.isfinite(t_end), np.arctan2(np.where(np.isfinite(t_end), t_end, 0.0) - delta, D),
                        0.5 * np.pi)

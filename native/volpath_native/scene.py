@@ -70,6 +70,10 @@ class Medium:
     g: float = 0.0
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
+    # Scene.media may also hold heterogeneous grid_medium.GridMedium objects (is_homogeneous False),
+    # bounded by a closed null mesh like any medium; they cannot be the world medium.
+    is_homogeneous = True
+
     def __post_init__(self):
         self.sigma_s = rgb(self.sigma_s, f"medium '{self.name}' sigma_s")
         self.sigma_a = rgb(self.sigma_a, f"medium '{self.name}' sigma_a")
@@ -395,7 +399,8 @@ class Scene:
         if not np.all(np.isfinite(self.camera.camera_to_world)):
             raise SceneError("camera transform is not finite")
         for medium in self.media:
-            warnings += medium.validate()
+            if getattr(medium, "is_homogeneous", True):
+                warnings += medium.validate()
         n_media = len(self.media)
         for material in self.materials:
             if material.surface not in SURFACE_KINDS:
@@ -408,6 +413,8 @@ class Scene:
                 material.emission = np.maximum(material.emission, 0.0)
         if not -1 <= self.world.medium < n_media:
             raise SceneError(f"world medium index {self.world.medium} out of range")
+        if self.world.medium >= 0 and not getattr(self.media[self.world.medium], "is_homogeneous", True):
+            raise SceneError("a grid (heterogeneous) medium cannot fill the world; bound it with a closed mesh")
         for mesh in self.meshes:
             warnings += mesh.validate(len(self.materials))
             medium_faces = np.array([m.medium >= 0 for m in self.materials], dtype=bool)

@@ -43,8 +43,29 @@ def _to_json(obj) -> dict:
     return out
 
 
+def _medium_header(index: int, medium, arrays: dict) -> dict:
+    """Homogeneous media are plain JSON; grid media (type "grid") keep their voxel arrays as
+    `medium{i}.<name>` entries (additive to format version 1: older files have none)."""
+    if getattr(medium, "is_homogeneous", True):
+        return _to_json(medium)
+    header, grids = medium.to_record()
+    for key, value in grids.items():
+        arrays[f"medium{index}.{key}"] = value
+    return header
+
+
+def _load_medium(index: int, entry: dict, data) -> object:
+    if entry.get("type") == "grid":
+        from .grid_medium import GridMedium
+        prefix = f"medium{index}."
+        grids = {k[len(prefix):]: data[k] for k in data.files if k.startswith(prefix)}
+        return GridMedium.from_record(entry, grids)
+    return sc.Medium(**entry)
+
+
 def save_scene(scene: sc.Scene, path) -> Path:
     path = Path(path)
+    arrays = {}
     header = {
         "format": FORMAT_NAME,
         "version": FORMAT_VERSION,
@@ -53,11 +74,11 @@ def save_scene(scene: sc.Scene, path) -> Path:
         "world": _to_json(scene.world),
         "settings": _to_json(scene.settings),
         "materials": [_to_json(m) for m in scene.materials],
-        "media": [_to_json(m) for m in scene.media],
+        "media": [_medium_header(i, m, arrays) for i, m in enumerate(scene.media)],
         "lights": [dict(_to_json(light), type=_LIGHT_NAMES[type(light)]) for light in scene.lights],
         "meshes": [{"name": m.name, "smooth": m.corner_normals is not None} for m in scene.meshes],
     }
-    arrays = {"scene.json": np.frombuffer(json.dumps(header).encode("utf-8"), dtype=np.uint8)}
+    arrays["scene.json"] = np.frombuffer(json.dumps(header).encode("utf-8"), dtype=np.uint8)
     for i, mesh in enumerate(scene.meshes):
         arrays[f"mesh{i}.vertices"] = mesh.vertices
         arrays[f"mesh{i}.triangles"] = mesh.triangles
@@ -80,6 +101,7 @@ def load_scene(path) -> sc.Scene:
         if int(header.get("version", 0)) > FORMAT_VERSION:
             raise sc.SceneError(f"{path}: scene format version {header['version']} is newer than "
                                 f"this renderer's ({FORMAT_VERSION}); update VolPath")
+        media = [_load_medium(i, m, data) for i, m in enumerate(header["media"])]
         meshes = []
         for i, info in enumerate(header["meshes"]):
             meshes.append(sc.Mesh(
@@ -101,7 +123,7 @@ def load_scene(path) -> sc.Scene:
         film=sc.Film(**film),
         meshes=meshes,
         materials=[sc.Material(**m) for m in header["materials"]],
-        media=[sc.Medium(**m) for m in header["media"]],
+        media=media,
         lights=lights,
         world=sc.World(**header["world"]),
         settings=sc.RenderSettings(**header["settings"]),
