@@ -113,7 +113,8 @@ class GridMedium:
     scatter_grid, absorb_grid: optional (nx, ny, nz, 3) per-voxel RGB factors replacing sigma_s /
         sigma_a (colour attributes: see `with_color_grid`); both or neither.
     emission: constant RGB emitted radiance per unit length W/(m^3 sr), *not* scaled by density
-        (Cycles' Principled Volume emission), applied inside the voxel box.
+        (Cycles' Principled Volume emission), applied inside the medium's box, index space
+        [-1, n + 1] per axis of the given arrays: Cycles' volume bounds (see the padding below).
     emission_grid: optional (nx, ny, nz, 3) per-voxel emission added to it (blackbody, flame).
     g: Henyey-Greenstein anisotropy.
     majorant_resolution: majorant cells per axis (at most one cell per voxel interval).
@@ -143,9 +144,13 @@ class GridMedium:
         if not np.all(np.isfinite(transform)) or abs(np.linalg.det(transform[:3, :3])) < 1e-30:
             raise SceneError(f"grid medium '{name}': index_to_world is singular or not finite")
 
-        # One voxel of zero padding: the trilinear interpolant then falls to the background (0)
-        # inside the array, so lookups never special-case the border.
-        pad = lambda a: np.pad(np.asarray(a, dtype=np.float32), [(1, 1)] * 3 + [(0, 0)] * (a.ndim - 3))
+        # Zero padding, one voxel below and two above: the trilinear interpolant falls to the
+        # background (0) inside the array, so lookups never special-case the border, and the
+        # padded box [lo - 1, hi + 2] (index space) is exactly Cycles' volume bounds mesh for
+        # linear interpolation (scene/volume.cpp VolumeMeshBuilder: bounding box of the active
+        # voxels dilated by one; measured with Blender 5.0.1 Cycles: constant emission of a
+        # Volume object fills exactly [lo - 1, hi + 2]).
+        pad = lambda a: np.pad(np.asarray(a, dtype=np.float32), [(1, 2)] * 3 + [(0, 0)] * (a.ndim - 3))
         self.density = pad(np.maximum(density, 0.0))
         self.shape = np.array(self.density.shape, dtype=np.int64)
         shift = np.eye(4)
@@ -257,7 +262,7 @@ class GridMedium:
     def to_record(self):
         """(header, arrays): JSON-ready scalars/lists and float32 arrays that `from_record` turns
         back into an identical medium (grids stored without the internal padding)."""
-        inner = (slice(1, -1),) * 3
+        inner = (slice(1, -2),) * 3
         header = {"type": "grid", "name": self.name, "sigma_s": self.sigma_s.tolist(),
                   "sigma_a": self.sigma_a.tolist(), "g": self.g, "emission": self.emission.tolist(),
                   "index_to_world": self.source_index_to_world.tolist(),
@@ -337,8 +342,8 @@ class GridMedium:
             sigma_a = rho * self.sigma_a
         emission = np.zeros_like(sigma_s)
         if np.any(self.emission > 0):
-            # Constant emission inside the (unpadded) voxel box.
-            inside = np.all((p >= 1) & (p <= self.shape - 2), axis=1)
+            # Constant emission fills the padded box (Cycles' volume bounds, see the class doc).
+            inside = np.all((p >= 0) & (p <= self.shape - 1), axis=1)
             emission += inside[:, None] * self.emission
         if self.emission_grid is not None:
             emission += self._interpolate(self.emission_grid, idx, w)

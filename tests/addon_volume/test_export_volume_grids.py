@@ -205,10 +205,30 @@ def render_cycles(scene, seed, path):
     return pixels  # row 0 = top
 
 
-def test_absorbing_volume_matches_cycles_transmittance(openvdb, tmp_path, clean_scene):
-    """A pure absorber (Color black: sigma_a = rho) on a rotated, non-uniformly scaled Volume object,
-    seen by an orthographic camera against a white world: each pixel is exp(-optical depth) through
-    the exported GridMedium (deterministic quadrature). Linear statistics of the image (mean, first
+def transmittance_and_emission(medium, origins, dirs, steps=1500):
+    """Midpoint quadrature of T(L) and of the integral of emission(t) T(t) dt along each ray,
+    restricted to the medium's box: (N,3), (N,3)."""
+    lo, hi = medium.world_bounds()
+    length = float(np.linalg.norm(hi - lo)) * 2.0 + float(np.abs(origins).max())
+    dt = length / steps
+    tau = np.zeros((len(origins), 3))
+    emitted = np.zeros((len(origins), 3))
+    for k in range(steps):
+        _, sigma_t, emission = medium.coefficients(origins + dirs * ((k + 0.5) * dt))
+        # exact within a step for piecewise-constant coefficients: e (1 - exp(-s dt)) / s
+        attenuation = np.exp(-sigma_t * dt)
+        segment = np.where(sigma_t > 0, (1 - attenuation) / np.maximum(sigma_t, 1e-300), dt)
+        emitted += np.exp(-tau) * emission * segment
+        tau += sigma_t * dt
+    return np.exp(-tau), emitted
+
+
+def test_absorbing_emitting_volume_matches_cycles(openvdb, tmp_path, clean_scene):
+    """A pure absorber (Color black: sigma_a = rho) that also emits (Emission Strength: constant,
+    not density-weighted, filling Cycles' volume bounds) on a rotated, non-uniformly scaled Volume
+    object, seen by an orthographic camera against a white world: each pixel is
+    exp(-tau) + integral of emission x transmittance through the exported GridMedium (deterministic
+    quadrature). Linear statistics of the image (mean, first
     moments, a T-weighted sum) are z-tested with variances estimated per pixel from two Cycles
     renders with different seeds: var(sum w m) = sum w^2 (c1 - c2)^2 / 4. This checks the grid
     transform, trilinear interpolation, Principled conversion and object density scale together."""
@@ -218,7 +238,11 @@ def test_absorbing_volume_matches_cycles_transmittance(openvdb, tmp_path, clean_
     path = write_vdb(openvdb, tmp_path / "blob.vdb", [float_grid(openvdb, "density", density)])
     obj = volume_object(path, location=(0.1, -0.2, 0.0), rotation=(0.3, 0.2, 0.5), scale=(2.0, 1.2, 1.5))
     obj.data.render.precision = "FULL"  # the default half floats would add ~1e-3 relative error
-    obj.data.materials.append(principled_material(density=3.0, color=(0.0, 0.0, 0.0, 1.0)))
+    material = principled_material(density=3.0, color=(0.0, 0.0, 0.0, 1.0))
+    principled = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeVolumePrincipled")
+    principled.inputs["Emission Strength"].default_value = 0.4
+    principled.inputs["Emission Color"].default_value = (1.0, 0.5, 0.25, 1.0)
+    obj.data.materials.append(material)
     warnings = []
     exported = evg.export_volume_object(evaluated(obj)[0], warnings)
     medium = evg.grid_medium_from_volume(exported, warnings)
@@ -253,8 +277,8 @@ def test_absorbing_volume_matches_cycles_transmittance(openvdb, tmp_path, clean_
         scene.cycles.filter_width = 0.01  # one ray through each pixel centre
         render.image_settings.file_format, render.image_settings.color_depth = "OPEN_EXR", "32"
         scene.view_settings.view_transform = "Standard"
-        first = render_cycles(scene, 1, tmp_path / "c1.exr")[..., 0]
-        second = render_cycles(scene, 2, tmp_path / "c2.exr")[..., 0]
+        first = render_cycles(scene, 1, tmp_path / "c1.exr")
+        second = render_cycles(scene, 2, tmp_path / "c2.exr")
     finally:
         for other in hidden:
             other.hide_render = False
@@ -267,21 +291,22 @@ def test_absorbing_volume_matches_cycles_transmittance(openvdb, tmp_path, clean_
     u, v = np.meshgrid(centres * camera_data.ortho_scale, -centres * camera_data.ortho_scale)
     origins = np.stack([u.ravel(), v.ravel(), np.zeros(size * size)], axis=1) + camera_location
     dirs = np.tile([0.0, 0.0, -1.0], (size * size, 1))
-    reference = np.exp(-medium.optical_depth(origins, dirs, np.inf, steps=1500)[:, 0]).reshape(size, size)
-    assert reference.min() < 0.2  # the blob is thick enough to test something
+    transmittance, emitted = transmittance_and_emission(medium, origins, dirs)
+    reference = (transmittance + emitted).reshape(size, size, 3)
+    assert transmittance.min() < 0.2 and emitted.max() > 0.1  # strong enough to test something
 
     mean = 0.5 * (first + second)
     variance_of_mean = 0.25 * (first - second) ** 2  # unbiased per-pixel variance of `mean`
-    rows, cols = np.mgrid[0:size, 0:size] / size
-    absorbed = 1.0 - reference
-    for name, weights in (("sum", np.ones_like(mean)), ("x moment", cols), ("y moment", rows),
+    rows, cols = (np.mgrid[0:size, 0:size] / size)[..., None]
+    absorbed = 1.0 - transmittance.reshape(size, size, 3)
+    for name, weights in (("sum", np.ones((size, size, 1))), ("x moment", cols), ("y moment", rows),
                           ("absorption-weighted", absorbed)):
-        difference = np.sum(weights * (mean - reference))
-        stderr = np.sqrt(np.sum(weights ** 2 * variance_of_mean))
-        assert abs(difference) < 4.0 * stderr + 1e-9, (name, difference, stderr)
-    # Where the reference is clear, Cycles must be too (catches a shifted or mis-scaled blob).
-    clear = reference > 0.9999
-    assert np.all(mean[clear] > 0.999), np.argwhere(clear & (mean <= 0.999))
+        difference = np.sum(weights * (mean - reference), axis=(0, 1))
+        stderr = np.sqrt(np.sum(weights ** 2 * variance_of_mean, axis=(0, 1)))
+        assert np.all(np.abs(difference) < 4.0 * stderr + 1e-9), (name, difference, stderr)
+    # Outside the volume bounds Cycles must show the plain background (catches shifted bounds).
+    clear = (transmittance.reshape(size, size, 3).min(axis=2) > 0.9999) & (emitted.reshape(size, size, 3).max(axis=2) == 0)
+    assert np.all(np.abs(mean[clear] - 1.0) < 1e-3), np.argwhere(clear & np.any(np.abs(mean - 1) >= 1e-3, axis=2))
 
 
 def test_collection_instances_get_their_own_transform(openvdb, tmp_path, clean_scene):
