@@ -186,22 +186,29 @@ def export_volume_object(obj, warnings: list, temp_dir: Optional[str] = None,
 
 
 def export_volume_objects(depsgraph, warnings: list, temp_dir: Optional[str] = None) -> list:
-    """ExportedVolume for every visible Volume object instance in the evaluated depsgraph."""
+    """ExportedVolume for every rendered Volume object instance in the evaluated depsgraph.
+
+    Instances of the same evaluated volume share their dense arrays (read once); each gets its own
+    index->world transforms and density factor from its instance matrix."""
     exported = []
+    read: dict = {}  # evaluated volume data pointer -> ExportedVolume (or None if unusable)
     for instance in depsgraph.object_instances:
         obj = instance.object
-        if obj.type != "VOLUME":
+        if obj.type != "VOLUME" or (not instance.is_instance and not instance.show_self):
             continue
-        result = export_volume_object(obj, warnings, temp_dir)
-        if result is not None:
-            result.object_to_world = np.array(instance.matrix_world, dtype=np.float64)
-            if instance.is_instance:
-                # Instances share grids but not transforms: recompose with the instance matrix.
-                for grid in result.grids.values():
-                    grid.index_to_world = result.object_to_world @ grid.grid_to_object @ _shift(grid.index_origin)
-                result.density_factor = volume_object_density_factor(
-                    result.object_to_world, object_space=obj.data.render.space == "OBJECT")
-            exported.append(result)
+        key = obj.data.as_pointer()
+        if key not in read:
+            read[key] = export_volume_object(obj, warnings, temp_dir)
+        source = read[key]
+        if source is None:
+            continue
+        object_to_world = np.array(instance.matrix_world, dtype=np.float64)
+        grids = {name: DenseGrid(g.name, g.data, object_to_world @ g.grid_to_object @ _shift(g.index_origin),
+                                 g.index_origin, g.grid_to_object) for name, g in source.grids.items()}
+        exported.append(ExportedVolume(
+            obj.name, object_to_world, grids,
+            volume_object_density_factor(object_to_world, object_space=obj.data.render.space == "OBJECT"),
+            obj.active_material))
     return exported
 
 
