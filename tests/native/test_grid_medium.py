@@ -167,7 +167,8 @@ def test_dda_visits_exactly_the_cells_brute_force_finds():
 # ---------------------------------------------------------------------------------------------
 # Transmittance (ratio tracking)
 # ---------------------------------------------------------------------------------------------
-def test_constant_grid_transmittance_is_beer_lambert():
+@pytest.mark.parametrize("residual", [True, False], ids=["residual", "ratio"])
+def test_constant_grid_transmittance_is_beer_lambert(residual):
     sigma_s, sigma_a = np.array([0.5, 1.0, 2.0]), np.array([0.5, 0.2, 0.0])
     n = 16
     transform = rotated_transform()
@@ -175,12 +176,14 @@ def test_constant_grid_transmittance_is_beer_lambert():
     rng = np.random.default_rng(6)
     origins, dirs, length, _, _ = rays_through_interior(transform, n, 1, rng)
     count = 40_000
-    estimates = medium.transmittance(np.repeat(origins, count, 0), np.repeat(dirs, count, 0), length[0], rng)
+    estimates = medium.transmittance(np.repeat(origins, count, 0), np.repeat(dirs, count, 0), length[0], rng,
+                                     residual=residual)
     expected = np.exp(-(sigma_s + sigma_a) * length[0])
     assert np.all(z_score(estimates, expected) < Z_LIMIT), (estimates.mean(0), expected)
 
 
-def test_ramp_transmittance_matches_closed_form_optical_depth():
+@pytest.mark.parametrize("residual", [True, False], ids=["residual", "ratio"])
+def test_ramp_transmittance_matches_closed_form_optical_depth(residual):
     sigma_s, sigma_a = np.array([2.0, 4.0, 6.0]), np.array([1.0, 0.0, 2.0])
     medium, transform, (a, b, n) = ramp_medium(sigma_s, sigma_a)
     rng = np.random.default_rng(7)
@@ -189,7 +192,7 @@ def test_ramp_transmittance_matches_closed_form_optical_depth():
     np.testing.assert_allclose(medium.optical_depth(origins, dirs, length, steps=64), tau, rtol=1e-5)
     count = 20_000
     estimates = medium.transmittance(np.repeat(origins, count, 0), np.repeat(dirs, count, 0),
-                                     np.repeat(length, count), rng).reshape(len(length), count, 3)
+                                     np.repeat(length, count), rng, residual=residual).reshape(len(length), count, 3)
     for ray in range(len(length)):
         assert np.all(z_score(estimates[ray], np.exp(-tau[ray])) < Z_LIMIT), ray
 
@@ -286,14 +289,40 @@ def test_too_low_majorant_is_detected_in_debug_mode():
     medium, transform, (a, b, n) = ramp_medium(2.0, 1.0, debug=True)
     rng = np.random.default_rng(12)
     origins, dirs, length, _, _ = rays_through_interior(transform, n, 200, rng)
-    medium.transmittance(origins, dirs, length, rng)  # a correct majorant passes
+    medium.transmittance(origins, dirs, length, rng)  # correct bounds pass
+    medium.transmittance(origins, dirs, length, rng, residual=False)
+    medium.sample_free_flight(origins, dirs, length, rng)
+    good_majorant, good_rate, good_minorant = (medium.majorant_grid.copy(), medium.residual_rate.copy(),
+                                               medium.minorant_rgb.copy())
     medium.majorant_grid *= 0.5
     with pytest.raises(MajorantTooLowError):
-        medium.transmittance(origins, dirs, length, rng)
+        medium.transmittance(origins, dirs, length, rng, residual=False)
     with pytest.raises(MajorantTooLowError):
         medium.sample_free_flight(origins, dirs, length, rng)
+    medium.residual_rate *= 0.5
+    with pytest.raises(MajorantTooLowError, match="majorant"):
+        medium.transmittance(origins, dirs, length, rng)
+    medium.residual_rate[:] = good_rate
+    medium.minorant_rgb *= 1.5  # a control above sigma_t somewhere
+    medium.residual_rate += 10.0  # ...with a rate still large enough: only the minorant check fires
+    with pytest.raises(MajorantTooLowError, match="minorant"):
+        medium.transmittance(origins, dirs, length, rng)
     medium.debug = False
-    medium.transmittance(origins, dirs, length, rng)  # no check without debug (and biased)
+    medium.transmittance(origins, dirs, length, rng, residual=False)  # no check without debug (and biased)
+
+
+def test_residual_ratio_tracking_beats_plain_ratio_tracking_on_a_smooth_field():
+    """Same expectation, lower variance and fewer density lookups with the minorant as control."""
+    medium, transform, (a, b, n) = ramp_medium([2.0, 3.0, 4.0], 1.0)
+    rng = np.random.default_rng(14)
+    origins, dirs, length, _, _ = rays_through_interior(transform, n, 1, rng)
+    count = 20_000
+    args = (np.repeat(origins, count, 0), np.repeat(dirs, count, 0), length[0])
+    plain = medium.transmittance(*args, np.random.default_rng(1), residual=False)
+    residual = medium.transmittance(*args, np.random.default_rng(2), residual=True)
+    assert np.all(residual.var(axis=0) < 0.5 * plain.var(axis=0))
+    assert np.all(np.abs(residual.mean(0) - plain.mean(0)) <
+                  Z_LIMIT * np.sqrt((residual.var(0) + plain.var(0)) / count))
 
 
 def test_results_are_reproducible_for_a_seed():
