@@ -113,7 +113,12 @@ class Integrator:
         """Radiance estimates (N,3) for paths (crop-region pixel index, sample index) and stats."""
         st = self.settings
         n = len(pixel)
-        ctx = _BatchContext(dict(rays=0, shadow_rays=0, vertices=0, paths=n), None)
+        rng = None
+        if self.media.has_grids:
+            # grid tracking draws from a numpy Generator seeded by the batch's first path: still
+            # deterministic for a given batch layout, but not independent of the batch size
+            rng = np.random.default_rng([st.seed & 0xFFFFFFFF, int(pixel[0]), int(sample[0]), n])
+        ctx = _BatchContext(dict(rays=0, shadow_rays=0, vertices=0, paths=n), rng)
         x0, y0, cw, _ = self.crop
         px, py = x0 + pixel % cw, y0 + pixel // cw
         # keyed by the full-frame pixel, so a crop renders exactly the pixels of the full frame
@@ -168,6 +173,9 @@ class Integrator:
             in_med = (max3(sig_t) > 0) | (max3(emis) > 0)
         else:
             in_med = np.zeros(n, bool)
+        in_grid = self.media.inside_grid(S.counts) if self.media.has_grids else np.zeros(n, bool)
+        in_med |= in_grid
+        phase_g = g.copy() if self.media.any_medium else None
         if in_med.any() and np.any(S.lead > 0):
             # the origin sits `lead` past the boundary it just crossed: attenuate that gap exactly
             j = np.nonzero(in_med & (S.lead > 0))[0]
@@ -178,11 +186,14 @@ class Integrator:
             i = np.nonzero(in_med & (max3(emis) > 0))[0]
             if len(i):
                 L[S.pid[i]] += S.beta[i] * md.emission_integral(emis[i], sig_t[i], t_seg[i])
-            i = np.nonzero(in_med & ~S.tat & (max3(sig_s) > 0))[0]
+            i = np.nonzero(in_med & ~S.tat & (max3(sig_s) > 0) & ~in_grid)[0]
             if len(i) and self.lights.count:
                 self._medium_nee(S, i, L, sig_s[i], sig_t[i], g[i], t_seg[i], ctx)
+            i = np.nonzero(in_grid & ~S.tat)[0]
+            if len(i) and self.lights.count:
+                self._grid_nee(S, i, L, sig_s[i], sig_t[i], g[i], t_seg[i], ctx)
             # continuation: free-flight sampling, or plain attenuation when scattering is over
-            samp = np.nonzero(in_med & ~S.tat & (max3(sig_s) > 0))[0]
+            samp = np.nonzero(in_med & ~S.tat & (max3(sig_s) > 0) & ~in_grid)[0]
             survive_p = np.zeros((n, 3))
             if len(samp):
                 p = md.channel_probabilities(S.beta[samp], sig_s[samp], sig_t[samp])
@@ -197,14 +208,19 @@ class Integrator:
                 k = samp[~sc]
                 _, surv, tr = md.distance_pdf(sig_t[k], p[~sc], t_seg[k])
                 S.beta[k] = np.where(surv[:, None] > 0, S.beta[k] * tr / np.where(surv > 0, surv, 1.0)[:, None], 0.0)
-            att = np.nonzero(in_med & ~np.isin(np.arange(n), samp))[0]
+            att = np.nonzero(in_med & ~np.isin(np.arange(n), samp) & ~in_grid)[0]
             if len(att):
                 S.beta[att] = S.beta[att] * md.transmittance(sig_t[att], t_seg[att])
+            G = np.nonzero(in_grid)[0]
+            if len(G):
+                self._grid_segment(S, G, L, beta_in, sig_s[G], sig_t[G], t_seg[G], scatter, t_scatter, phase_g, ctx)
 
         self._poll_cancel()
         # ---- lamps crossed before the end of the segment (they do not block) -------------
         if len(self.lights.hittable_rows):
-            reach = np.minimum(t_scatter, t_seg)
+            # grid paths use an independent ratio-tracking estimate of the transmittance to the
+            # lamp (unbiased, whatever their own collision), so they reach every lamp on the segment
+            reach = np.where(in_grid, t_seg, np.minimum(t_scatter, t_seg))
             for t_l, radiance, lpdf, camera_visible in self.lights.intersect_lamps(
                     S.prev_pos, S.d, S.travelled, S.travelled + reach):
                 found = np.isfinite(t_l)
@@ -221,8 +237,12 @@ class Integrator:
                     p = survive_p[hit] if survive_p is not None else np.zeros((len(hit), 3))
                     sampled = sum3(p) > 0
                     _, surv, _ = md.distance_pdf(sig_t[hit], np.where(sampled[:, None], p, 1.0), local_t)
-                    scale = np.where(sampled[:, None], tr / np.maximum(surv, 1e-300)[:, None], tr)
+                    scale = np.where(sampled[:, None] & ~in_grid[hit][:, None], tr / np.maximum(surv, 1e-300)[:, None], tr)
                     weight = weight * scale
+                    gh = np.nonzero(in_grid[hit])[0]
+                    if len(gh):
+                        weight[gh] *= self._grid_transmittance(S.o[hit[gh]], S.d[hit[gh]], local_t[gh],
+                                                               S.counts[hit[gh]], ctx)
                 L[S.pid[hit]] += weight * radiance[hit] * w[:, None]
 
         # ---- escaped rays ------------------------------------------------------------------
@@ -241,7 +261,12 @@ class Integrator:
         if len(v):
             ctx.stats["vertices"] += len(v)
             x = S.o[v] + S.d[v] * t_scatter[v][:, None]
-            wo, pdf = hg_sample(S.d[v], g[v], self._u(S, D_PHASE_U, v), self._u(S, D_PHASE_V, v))
+            wo, pdf = hg_sample(S.d[v], phase_g[v], self._u(S, D_PHASE_U, v), self._u(S, D_PHASE_V, v))
+            gv = np.nonzero(in_grid[v])[0]
+            if len(gv):
+                # MIS needs the pdf of the whole phase mixture at x (same function as grid NEE)
+                comps = self._scattering_components(x[gv], S.counts[v[gv]], sig_s[v[gv]], g[v[gv]])
+                _, pdf[gv] = _phase_mixture(comps, _dot(S.d[v[gv]], wo[gv]))
             # beta *= phase / pdf == 1 for exactly sampled HG
             S.o[v], S.d[v], S.prev_pos[v], S.prev_pdf[v] = x, wo, x, pdf
             S.travelled[v] = 0.0
@@ -420,6 +445,8 @@ class Integrator:
             if self.media.any_medium:
                 _, sig_t, _, _ = self.media.coefficients(counts[alive])
                 T[alive] *= md.transmittance(sig_t, seg + lead[alive] + np.where(hit, 0.0, margin))
+                if self.media.has_grids:
+                    T[alive] *= self._grid_transmittance(origin[alive], wi[alive], seg, counts[alive], ctx)
             null = hit & self.tri_null[np.maximum(hits.prim, 0)]
             T[alive[hit & ~null]] = 0.0
             a = alive[null]
@@ -435,3 +462,132 @@ class Integrator:
             alive = a[remaining[a] > 0]
         T[alive] = 0.0
         return T
+
+    # -----------------------------------------------------------------------------------------
+    # Heterogeneous (grid) media: delta tracking and ratio tracking from grid_medium.GridMedium.
+    # A homogeneous medium overlapping a grid is sampled first and the grid tracked only up to its
+    # event (the earlier of two independent collision processes is the first event of their sum).
+    # -----------------------------------------------------------------------------------------
+    def _grid_transmittance(self, origins, dirs, dist, counts, ctx):
+        """Product of ratio-tracking estimates over the grid volumes each ray is inside."""
+        T = np.ones((len(origins), 3))
+        for v, grid in self.media.grid_volumes:
+            sub = np.nonzero(counts[:, v] > 0)[0]
+            if len(sub):
+                T[sub] *= grid.transmittance(origins[sub], dirs[sub], dist[sub], ctx.rng)
+        return T
+
+    def _scattering_components(self, x, counts, sig_s_hom, g_hom):
+        """[(sigma_s (M,3), g (M,))] of every medium scattering at points x."""
+        comps = [(sig_s_hom, g_hom)]
+        for v, grid in self.media.grid_volumes:
+            inside = counts[:, v] > 0
+            if inside.any():
+                ss = np.zeros((len(x), 3))
+                ss[inside], _, _ = grid.coefficients(x[inside])
+                comps.append((ss, np.full(len(x), grid.g)))
+        return comps
+
+    def _grid_segment(self, S, G, L, beta_in, sig_s, sig_t, t_seg, scatter, t_scatter, phase_g, ctx):
+        """Free flight for paths G inside grid volumes (coefficient arrays are already [G])."""
+        beta = S.beta[G]
+        m = len(G)
+        weight = np.ones((m, 3))
+        tat = S.tat[G]
+        a = np.nonzero(tat)[0]
+        if len(a):  # attenuation only
+            weight[a] = md.transmittance(sig_t[a], t_seg[a]) * self._grid_transmittance(
+                S.o[G[a]], S.d[G[a]], t_seg[a], S.counts[G[a]], ctx)
+        live = np.nonzero(~tat)[0]
+        if len(live):
+            gl = G[live]
+            hom = max3(sig_s[live]) > 0
+            p = np.zeros((len(live), 3))
+            ts = np.full(len(live), np.inf)
+            h = np.nonzero(hom)[0]
+            if len(h):
+                p[h] = md.channel_probabilities(beta[live[h]], sig_s[live[h]], sig_t[live[h]])
+                ts[h] = md.sample_distance(sig_t[live[h]], p[h], self._u(S, D_CHANNEL, gl[h]),
+                                           self._u(S, D_DISTANCE, gl[h]))
+            t_end = np.minimum(ts, t_seg[live])
+            w = np.ones((len(live), 3))
+            grid_event = np.zeros(len(live), bool)
+            g_event = phase_g[gl].copy()
+            for v, grid in self.media.grid_volumes:
+                sub = np.nonzero(S.counts[gl, v] > 0)[0]
+                if not len(sub):
+                    continue
+                f = grid.sample_free_flight(S.o[gl[sub]], S.d[gl[sub]], t_end[sub], ctx.rng,
+                                            throughput=beta[live[sub]] * w[sub])
+                L[S.pid[gl[sub]]] += beta_in[gl[sub]] * w[sub] * f.emission
+                w[sub] *= f.weight
+                sc = np.nonzero(f.scattered)[0]
+                t_end[sub[sc]] = f.t[sc]
+                grid_event[sub[sc]] = True
+                g_event[sub[sc]] = grid.g
+            hom_event = hom & ~grid_event & (ts < t_seg[live])
+            t_eval = np.where(grid_event | hom_event, t_end, t_seg[live])
+            factor = md.transmittance(sig_t[live], t_eval)  # absorbing-only homogeneous part
+            if len(h):
+                pdf, surv, tr = md.distance_pdf(sig_t[live[h]], p[h], t_eval[h])
+                collide = hom_event[h]
+                pass_w = np.where(surv[:, None] > 0, tr / np.where(surv > 0, surv, 1.0)[:, None], 0.0)
+                coll_w = sig_s[live[h]] * tr / np.maximum(pdf, 1e-300)[:, None]
+                factor[h] = np.where(collide[:, None], coll_w, pass_w)
+            weight[live] = w * factor
+            event = grid_event | hom_event
+            scatter[gl[event]] = True
+            t_scatter[gl[event]] = t_eval[event]
+            phase_g[gl] = g_event
+        S.beta[G] = beta * weight
+
+    def _grid_nee(self, S, i, L, sig_s, sig_t, g, t_end, ctx):
+        """Next-event vertex per segment for paths inside grid volumes: the distance is drawn by
+        equiangular sampling (positional lights) or uniformly on the bounded segment, one-sample
+        MIS of the two; sigma_s and transmittance come from the grids (ratio tracking)."""
+        lights = self.lights
+        mode = self.settings.volume_sampling
+        o, d, beta = S.o[i], S.d[i], S.beta[i]
+        rows = lights.select(self._u(S, D_MED_SELECT, i))
+        finite = np.isfinite(t_end) & (t_end > 0)
+        can_equi = lights.has_position(rows) & (mode != "distance" or ~finite)
+        if mode == "equiangular":
+            prob_eq = np.where(can_equi, 1.0, 0.0)
+        else:
+            prob_eq = np.where(can_equi, np.where(finite, 0.5, 1.0), 0.0)
+        usable = can_equi | finite
+        setup = md.equiangular_setup(o, d, t_end, lights.position[rows])
+        u_t = self._u(S, D_MED_T, i)
+        t_eq, _ = md.equiangular_sample(setup, u_t)
+        te = np.where(finite, t_end, 0.0)
+        use_eq = self._u(S, D_MED_TECH, i) < prob_eq
+        t = np.where(use_eq, t_eq, u_t * te)
+        t = np.where(np.isfinite(t), t, 0.0)
+        pdf_t = prob_eq * md.equiangular_pdf(setup, t) + (1.0 - prob_eq) * np.where(finite, 1.0 / np.where(finite, te, 1.0), 0.0)
+        good = usable & (pdf_t > 0) & np.isfinite(pdf_t)
+        x = o + d * t[:, None]
+        ls = lights.sample(rows, x, self._u(S, D_MED_LU, i), self._u(S, D_MED_LV, i))
+        comps = self._scattering_components(x, S.counts[i], sig_s, g)
+        f_rgb, phase_pdf = _phase_mixture(comps, _dot(d, ls.wi))
+        w = np.where(ls.pdf > 0, _power_heuristic(ls.pdf, phase_pdf), 1.0)
+        scale = np.where(good, w / np.where(good, pdf_t, 1.0), 0.0)
+        contrib = beta * md.transmittance(sig_t, t) * f_rgb * scale[:, None] * ls.value
+        nz = np.nonzero(any_positive(contrib))[0]
+        if len(nz):
+            contrib = contrib[nz] * self._grid_transmittance(o[nz], d[nz], t[nz], S.counts[i[nz]], ctx)
+            tr = self._shadow(x[nz], ls.wi[nz], ls.dist[nz], S.counts[i[nz]], ctx)
+            L[S.pid[i[nz]]] += contrib * tr
+
+
+def _phase_mixture(components, cos_theta):
+    """Sum of sigma_s * HG over components (RGB) and the mixture's pdf (weights: mean sigma_s)."""
+    f = np.zeros((len(cos_theta), 3))
+    num = np.zeros(len(cos_theta))
+    den = np.zeros(len(cos_theta))
+    for sigma_s, g in components:
+        ph = hg_eval(g, cos_theta)
+        f += sigma_s * ph[:, None]
+        weight = sum3(sigma_s) / 3.0
+        num += weight * ph
+        den += weight
+    return f, np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)

@@ -30,14 +30,23 @@ class MediaTable:
             sel = (accel.mesh_ids == mesh) & (tri_medium == medium)
             self.tri_volume[sel] = v
         media = scene.media
+        # Heterogeneous (grid) media are tracked by their own objects; their rows in the
+        # homogeneous tables stay zero.
+        self.volume_is_grid = np.array([not getattr(media[m], "is_homogeneous", True) for m in self.volume_medium],
+                                       dtype=bool)
+        self.grid_volumes = [(int(v), media[m]) for v, m in enumerate(self.volume_medium) if self.volume_is_grid[v]]
+        self.has_grids = bool(self.grid_volumes)
 
         def table(attr):
-            return np.array([getattr(media[m], attr) for m in self.volume_medium]).reshape(-1, 3)
+            rows = [np.zeros(3) if self.volume_is_grid[v] else getattr(media[m], attr)
+                    for v, m in enumerate(self.volume_medium)]
+            return np.array(rows, dtype=np.float64).reshape(-1, 3)
 
         self.sigma_s = table("sigma_s")
         self.sigma_a = table("sigma_a")
         self.emission = table("emission")
-        self.g = np.array([media[m].g for m in self.volume_medium], dtype=np.float64)
+        self.g = np.array([0.0 if self.volume_is_grid[v] else media[m].g for v, m in enumerate(self.volume_medium)],
+                          dtype=np.float64)
         w = scene.world.medium
         zero = np.zeros(3)
         self.world_sigma_s = media[w].sigma_s if w >= 0 else zero
@@ -52,6 +61,13 @@ class MediaTable:
         if np.any((self.world_emission > 0) & (world_t <= 0)):
             self.warnings.append("world medium emits but does not attenuate: its emission would be "
                                  "infinite along escaping rays and is ignored there")
+
+    def inside_grid(self, counts: np.ndarray) -> np.ndarray:
+        """Paths whose volume stack contains at least one grid volume."""
+        inside = np.zeros(len(counts), dtype=bool)
+        for v, _ in self.grid_volumes:
+            inside |= counts[:, v] > 0
+        return inside
 
     def empty_stack(self, n: int) -> np.ndarray:
         return np.zeros((n, max(self.n_volumes, 1)), dtype=np.int8)
