@@ -458,8 +458,9 @@ class GridMedium:
             moving = np.flatnonzero(~collided)
             state.advance(moving, self.majorant_shape)
             keep = state.active & ~stopped
-            rays = rays[keep]
-            state = state.subset(np.flatnonzero(keep))
+            if not keep.all():  # compact only when some rays finished
+                rays = rays[keep]
+                state = state.subset(np.flatnonzero(keep))
 
     def sample_free_flight(self, origins, dirs, t_max, rng: np.random.Generator, throughput=None,
                            t_min=0.0) -> FreeFlight:
