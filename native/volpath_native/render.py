@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -87,12 +87,23 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
     done = 0
     cancelled = False
 
+    # cancel() is only ever called from this (the caller's) thread -- Blender's test_break must
+    # not be called from worker threads; workers watch an Event instead.
+    stop = threading.Event()
+
     def run(chunk):
-        if cancel is not None and cancel():
+        if stop.is_set():
             raise Cancelled()
         pix, smp = chunk
-        values, s = integrator.render_paths(pix, smp, cancel)
+        values, s = integrator.render_paths(pix, smp, stop.is_set)
         return pix, values, s
+
+    def wait_polling_cancel(futures):
+        pending = set(futures)
+        while pending:
+            _, pending = wait(pending, timeout=0.05)
+            if cancel is not None and not stop.is_set() and cancel():
+                stop.set()
 
     with ThreadPoolExecutor(max_workers=threads) as pool:
         while done < st.samples and not cancelled:
@@ -104,6 +115,7 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
             # still holds the same number of samples.
             round_film = []
             futures = [pool.submit(run, c) for c in chunks]
+            wait_polling_cancel(futures)
             try:
                 for f in futures:
                     round_film.append(f.result())
