@@ -15,7 +15,7 @@ from pathlib import Path
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-EXAMPLES = ("cornell_fog", "spot_godrays", "area_light", "sun_window", "sun_window_godrays",
+EXAMPLES = ("cornell_fog", "cornell_defaults", "spot_godrays", "area_light", "sun_window", "sun_window_godrays",
             "absorbing_medium", "anisotropic_forward", "anisotropic_backward", "emissive_medium",
             "nested_media", "heavy_density", "albedo_grid")
 

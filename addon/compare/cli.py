@@ -45,6 +45,13 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--resolution", type=_parse_resolution, help="override, e.g. 64x64")
     run.add_argument("--spp", type=int, default=64, help="equal-samples: total samples per pixel per engine")
     demo.add_argument("--spp", type=int, default=DEMO_SAMPLES)
+    ref = sub.add_parser("reference", help="render a high-sample Cycles reference EXR of a .blend "
+                                           "(matched settings, for --reference)")
+    ref.add_argument("blend", type=Path)
+    ref.add_argument("--out", type=Path, required=True, help="the EXR to write")
+    ref.add_argument("--spp", type=int, default=4096)
+    ref.add_argument("--seed", type=int, default=1000, help="keep it apart from the compared runs' seeds")
+    ref.add_argument("--resolution", type=_parse_resolution, help="override, e.g. 64x64")
     return parser
 
 
@@ -105,6 +112,8 @@ def main(argv=None) -> int:
     from . import cycles_engine, runner
 
     _register_addon()
+    if args.command == "reference":
+        return write_reference(args)
     options = runner.CompareOptions(mode=args.mode, samples=args.spp, seconds=args.seconds, runs=args.runs,
                                     seed=args.seed, alpha=args.alpha, resolution=args.resolution,
                                     reference=str(args.reference) if args.reference else None)
@@ -122,6 +131,35 @@ def main(argv=None) -> int:
         print(f"\nerror: {error}", file=sys.stderr)
         return 1
     print_summary(result)
+    return 0
+
+
+def write_reference(args) -> int:
+    """One long Cycles render under the comparison's matched settings (VolPath's bounce limits)."""
+    import bpy
+
+    from volpath_native import imageio
+
+    from . import cycles_engine, volpath_engine
+
+    if not args.blend.is_file():
+        print(f"error: no such .blend file: {args.blend}", file=sys.stderr)
+        return 1
+    bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
+    scene = bpy.context.scene
+    try:
+        native_scene, _ = volpath_engine.export(scene, args.resolution)
+        bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
+        print(f"rendering a {args.spp} spp Cycles reference ...", file=sys.stderr)
+        with quiet_stdout():
+            run, = cycles_engine.render_runs(scene, runs=1, samples=args.spp, base_seed=args.seed,
+                                            bounces=bounces, resolution=args.resolution)
+    except (cycles_engine.CyclesUnavailable, ValueError, RuntimeError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 1
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    imageio.write_exr(args.out, run.image)
+    print(f"reference ({run.samples} spp, {run.seconds:.1f} s): {args.out}")
     return 0
 
 
@@ -155,7 +193,12 @@ def print_summary(result) -> None:
     print("mean ratio VolPath/Cycles R/G/B: " + " ".join(f"{r:.4f}" for r in agreement.means.ratio)
           + f"  (means agree: {'yes' if agreement.means.passed else 'NO'})")
     print(f"pixels passing the Sidak-corrected t-test: {100 * agreement.pixel.fraction_passed:.2f}%  "
-          f"(image agrees: {'yes' if agreement.pixel.passed else 'NO'}); relMSE {agreement.relmse_a_vs_b:.4g}")
+          f"(pixels agree: {'yes' if agreement.pixel.passed else 'NO'}); relMSE {agreement.relmse_a_vs_b:.4g}")
+    for size, test in agreement.blocks.items():
+        print(f"  {size}x{size} blocks passing: {100 * test.fraction_passed:.2f}% "
+              f"(agree: {'yes' if test.passed else 'NO'})")
+    print(f"verdict: {'VolPath and Cycles agree' if result.agrees else 'VolPath and Cycles DISAGREE'} "
+          f"at family-wise significance {result.options.alpha:g}")
     if result.reference_errors:
         ref = result.reference_errors
         print(f"relMSE vs reference: VolPath {ref['relmse_volpath']:.4g}, Cycles {ref['relmse_cycles']:.4g}, "

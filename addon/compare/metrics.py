@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
 
@@ -50,6 +51,7 @@ class RunStatistics:
     variance_of_mean: np.ndarray  # (H, W, 3) sample variance over runs / K
     degrees_of_freedom: int     # K - 1
     run_channel_means: np.ndarray  # (K, 3) each run's image-wide RGB mean
+    run_images: Optional[np.ndarray] = field(default=None, repr=False)  # (K, H, W, 3), for block tests
 
     @property
     def runs(self) -> int:
@@ -73,7 +75,22 @@ def run_statistics(runs) -> RunStatistics:
     return RunStatistics(mean=stack.mean(axis=0),
                          variance_of_mean=stack.var(axis=0, ddof=1) / k,
                          degrees_of_freedom=k - 1,
-                         run_channel_means=stack.mean(axis=(1, 2)))
+                         run_channel_means=stack.mean(axis=(1, 2)),
+                         run_images=stack)
+
+
+def block_statistics(stats: RunStatistics, block: int) -> RunStatistics:
+    """The same runs averaged over block x block pixel tiles (edge pixels that do not fill a tile
+    are dropped). Averaging each run before estimating the variance keeps the test valid when
+    neighbouring pixels are correlated, and gains power against biases spread over a region."""
+    if stats.run_images is None:
+        raise ValueError("block statistics need the individual runs")
+    k, h, w, c = stats.run_images.shape
+    hb, wb = h // block, w // block
+    if hb < 1 or wb < 1:
+        raise ValueError(f"a {block}x{block} block does not fit a {w}x{h} image")
+    tiles = stats.run_images[:, :hb * block, :wb * block].reshape(k, hb, block, wb, block, c).mean(axis=(2, 4))
+    return run_statistics(tiles)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -296,14 +313,27 @@ def display_exposure(image: np.ndarray, target: float = 0.8, percentile: float =
     return float(np.log2(target / level)) if level > 0 else 0.0
 
 
+# Tile sizes of the block tests run next to the per-pixel test (when the image holds >= 4 tiles).
+BLOCK_SIZES = (4, 8)
+
+
 @dataclass
 class Comparison:
-    """Everything the report needs about two engines' runs of one frame."""
+    """Everything the report needs about two engines' runs of one frame.
+
+    The verdict combines the per-pixel test, block tests (BLOCK_SIZES) and the mean test; each is
+    run at a Sidak share of the family-wise alpha so that the combined false-alarm rate is alpha.
+    """
 
     pixel: PixelTest
     means: MeanTest
     relmse_a_vs_b: float
     relative_difference: np.ndarray = field(repr=False)
+    blocks: dict = field(default_factory=dict)  # block size -> PixelTest on block means
+
+    @property
+    def passed(self) -> bool:
+        return self.pixel.passed and self.means.passed and all(t.passed for t in self.blocks.values())
 
     def summary(self) -> dict:
         return {
@@ -322,10 +352,21 @@ class Comparison:
             "pixel_alpha_per_test": self.pixel.alpha_per_test,
             "pixel_tests": self.pixel.tests,
             "worst_pixel": self.pixel.worst(),
+            "blocks": {str(size): {"fraction_passed": t.fraction_passed, "agree": t.passed,
+                                   "tests": t.tests, "worst": t.worst()}
+                       for size, t in self.blocks.items()},
+            "agrees": self.passed,
         }
 
 
 def compare_runs(a: RunStatistics, b: RunStatistics, alpha: float = 0.01) -> Comparison:
-    return Comparison(pixel=pixel_t_test(a, b, alpha), means=mean_test(a, b, alpha),
+    """All agreement tests between two engines' runs; the family (pixels, each block size, means)
+    shares `alpha` by Sidak's rule."""
+    h, w = a.mean.shape[:2]
+    sizes = [size for size in BLOCK_SIZES
+             if a.run_images is not None and b.run_images is not None and (h // size) * (w // size) >= 4]
+    share = sidak_alpha(alpha, 2 + len(sizes))
+    blocks = {size: pixel_t_test(block_statistics(a, size), block_statistics(b, size), share) for size in sizes}
+    return Comparison(pixel=pixel_t_test(a, b, share), means=mean_test(a, b, share),
                       relmse_a_vs_b=relmse(a.mean, b.mean),
-                      relative_difference=signed_relative_difference(a.mean, b.mean))
+                      relative_difference=signed_relative_difference(a.mean, b.mean), blocks=blocks)

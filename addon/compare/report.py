@@ -62,9 +62,16 @@ def markdown_summary(report: dict) -> str:
         "",
         f"- Mean ratio VolPath/Cycles R/G/B: {_fmt(ratio)} (noise allows +-{_fmt(tolerance, 2)}); "
         f"means agree: **{'yes' if stats['means_agree'] else 'NO'}**.",
-        f"- Per-pixel Welch t-test (Sidak-corrected, family alpha {stats['pixel_alpha']:g}): "
-        f"{100 * stats['pixel_fraction_passed']:.2f}% of pixels pass; image agrees: "
+        f"- Per-pixel Welch t-test (Sidak-corrected to {stats['pixel_alpha']:.3g} for the pixels): "
+        f"{100 * stats['pixel_fraction_passed']:.2f}% of pixels pass; pixels agree: "
         f"**{'yes' if stats['pixels_agree'] else 'NO'}** (worst pixel p = {stats['worst_pixel']['p_value']:.3g}).",
+    ]
+    for size, block in stats.get("blocks", {}).items():
+        lines.append(f"- {size}x{size}-pixel blocks: {100 * block['fraction_passed']:.2f}% pass; agree: "
+                     f"**{'yes' if block['agree'] else 'NO'}**.")
+    lines += [
+        f"- **Verdict: {'VolPath and Cycles agree' if stats.get('agrees') else 'VolPath and Cycles DISAGREE'}** "
+        f"(pixels, blocks and means together at family-wise significance {report.get('alpha', 0.01):g}).",
         f"- relMSE VolPath vs Cycles: {stats['relmse_a_vs_b']:.4g}.",
     ]
     if reference:

@@ -96,7 +96,7 @@ class CompareResult:
 
     @property
     def agrees(self) -> bool:
-        return self.comparison.pixel.passed and self.comparison.means.passed
+        return self.comparison.passed
 
     def report(self) -> dict:
         h, w = self.volpath.statistics.mean.shape[:2]
@@ -106,6 +106,7 @@ class CompareResult:
             "resolution": [w, h],
             "runs": self.options.runs,
             "seed": self.options.seed,
+            "alpha": self.options.alpha,
             "requested": {"samples": self.options.samples, "seconds": self.options.seconds},
             "engines": {"volpath": self.volpath.summary(), "cycles": self.cycles.summary()},
             # In the agreement block, "a" is VolPath and "b" is Cycles.
