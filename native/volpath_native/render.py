@@ -31,16 +31,23 @@ class _Film:
     """Per-pixel running sums of the samples and their squares (float64)."""
 
     def __init__(self, n_pixels: int):
-        self.sum = np.zeros((n_pixels, 3))
-        self.sum_sq = np.zeros((n_pixels, 3))
-        self.count = np.zeros(n_pixels)
+        self.n_pixels = n_pixels
+        self.sum = self.sum_sq = self.count = None  # allocated on the first sample
         self.lock = threading.Lock()
+
+    @property
+    def empty(self) -> bool:
+        return self.count is None
 
     def add(self, pixel, values):
         # bincount over the chunk's own pixel range: cost follows the batch, not the resolution
         lo, hi = int(pixel.min()), int(pixel.max()) + 1
         local = pixel - lo
         with self.lock:
+            if self.count is None:
+                self.sum = np.zeros((self.n_pixels, 3))
+                self.sum_sq = np.zeros((self.n_pixels, 3))
+                self.count = np.zeros(self.n_pixels)
             self.count[lo:hi] += np.bincount(local, minlength=hi - lo)
             for c in range(3):
                 self.sum[lo:hi, c] += np.bincount(local, weights=values[:, c], minlength=hi - lo)
@@ -141,6 +148,10 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
                 cancelled = True
     elapsed = time.perf_counter() - start
     stats["seconds"] = elapsed
+    if film.empty:  # cancelled before the first round completed
+        return RenderResult(image=np.zeros((ch, cw, 4), np.float32), variance=np.zeros((ch, cw, 3), np.float32),
+                            samples=0, seconds=elapsed, stats=stats, warnings=warnings, cancelled=cancelled,
+                            crop_offset=(x0, y0))
     mean = film.mean()
     if not np.all(np.isfinite(mean)):
         bad = int(np.count_nonzero(~np.isfinite(mean).all(axis=1)))
