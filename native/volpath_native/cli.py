@@ -25,6 +25,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, help="random seed (default: the scene's)")
     r.add_argument("--threads", type=int, help="worker threads (0 = all cores)")
     r.add_argument("--batch-size", type=int, help="paths per wavefront batch")
+    r.add_argument("--processes", action="store_true",
+                   help="parallelise with forked worker processes instead of threads")
     for name in ("max", "diffuse", "volume", "transparent"):
         r.add_argument(f"--{name}-bounces", type=int)
     r.add_argument("--volume-sampling", choices=("mis", "distance", "equiangular"))
@@ -43,7 +45,8 @@ def main(argv=None) -> int:
     overrides = dict(samples=args.spp, seed=args.seed, threads=args.threads, batch_size=args.batch_size,
                      max_bounces=args.max_bounces, diffuse_bounces=args.diffuse_bounces,
                      volume_bounces=args.volume_bounces, transparent_bounces=args.transparent_bounces,
-                     volume_sampling=args.volume_sampling)
+                     volume_sampling=args.volume_sampling,
+                     parallelism="processes" if args.processes else None)
     for key, value in overrides.items():
         if value is not None:
             setattr(s, key, value)

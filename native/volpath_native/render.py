@@ -3,10 +3,11 @@ thread pool (Embree and large numpy operations release the GIL), callbacks for p
 partial images and cancellation."""
 from __future__ import annotations
 
+import multiprocessing
 import os
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor, wait
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -68,6 +69,21 @@ class _Film:
 _COUNTERS = ("rays", "shadow_rays", "vertices", "paths")
 
 
+_WORKER = None  # (Integrator, stop event) of the render being served by forked workers
+
+
+def _run_in_worker(chunk):
+    integrator, stop = _WORKER
+    if stop.is_set():
+        raise Cancelled()
+    return integrator.render_paths(chunk[0], chunk[1], stop.is_set)
+
+
+def _fork_available() -> bool:
+    """Processes are forked, never spawned: a spawned child would re-run Blender."""
+    return "fork" in multiprocessing.get_all_start_methods()
+
+
 def _thread_count(requested: int) -> int:
     return max(1, requested if requested > 0 else (os.cpu_count() or 1))
 
@@ -80,6 +96,8 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
         raise SceneError(f"samples must be at least 1, got {st.samples}")
     if st.volume_sampling not in ("mis", "distance", "equiangular"):
         raise SceneError(f"unknown volume sampling '{st.volume_sampling}'")
+    if st.parallelism not in ("threads", "processes"):
+        raise SceneError(f"unknown parallelism '{st.parallelism}' (threads or processes)")
     start = time.perf_counter()
     integrator = Integrator(scene)
     warnings += integrator.warnings
@@ -96,14 +114,23 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
 
     # cancel() is only ever called from this (the caller's) thread -- Blender's test_break must
     # not be called from worker threads; workers watch an Event instead.
-    stop = threading.Event()
+    use_processes = st.parallelism == "processes" and threads > 1 and _fork_available()
+    if use_processes:
+        mp = multiprocessing.get_context("fork")
+        stop = mp.Event()
+        global _WORKER
+        _WORKER = (integrator, stop)  # inherited by the forked workers
+        executor = ProcessPoolExecutor(max_workers=threads, mp_context=mp)
+        run = _run_in_worker
+    else:
+        stop = threading.Event()
+        executor = ThreadPoolExecutor(max_workers=threads)
 
-    def run(chunk):
-        if stop.is_set():
-            raise Cancelled()
-        pix, smp = chunk
-        values, s = integrator.render_paths(pix, smp, stop.is_set)
-        return pix, values, s
+        def run(chunk):
+            if stop.is_set():
+                raise Cancelled()
+            values, s = integrator.render_paths(chunk[0], chunk[1], stop.is_set)
+            return values, s
 
     def wait_polling_cancel(futures):
         pending = set(futures)
@@ -112,7 +139,7 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
             if cancel is not None and not stop.is_set() and cancel():
                 stop.set()
 
-    with ThreadPoolExecutor(max_workers=threads) as pool:
+    with executor as pool:
         while done < st.samples and not cancelled:
             n_smp = min(per_round, st.samples - done)
             pixels = np.tile(np.arange(n_pix, dtype=np.int64), n_smp)
@@ -124,8 +151,8 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
             futures = [pool.submit(run, c) for c in chunks]
             wait_polling_cancel(futures)
             try:
-                for f in futures:
-                    round_film.append(f.result())
+                for c, f in zip(chunks, futures):
+                    round_film.append((c[0], *f.result()))
             except Cancelled:
                 cancelled = True
                 for f in futures:

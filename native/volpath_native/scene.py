@@ -374,6 +374,9 @@ class RenderSettings:
     russian_roulette_min_bounces: int = 3
     batch_size: int = 1 << 16
     threads: int = 0  # 0: all cores
+    # 'threads' (default; safe inside Blender) or 'processes' (forked workers, Linux/macOS; numpy's
+    # Python-level overhead holds the GIL, so processes scale better outside Blender).
+    parallelism: str = "threads"
 
 
 @dataclass

@@ -101,22 +101,27 @@ def raw_embree_rays_per_second(scene: Scene, batch: int, threads: int, repeats: 
 def run(spp: int, batch: int, profile: bool) -> None:
     print(f"Cornell box + homogeneous fog + point light, 256x256, {spp} spp, batch {batch}")
     results = {}
-    for threads in (1, 2):
+    with open("/proc/loadavg") as f:
+        print(f"  load average before the run: {f.read().split()[0]} on {__import__('os').cpu_count()} cores "
+              "(other processes make the thread speedup meaningless)")
+    for threads, parallelism in ((1, "threads"), (2, "threads"), (2, "processes")):
         scene = cornell_fog_scene(spp=spp, threads=threads, batch_size=batch)
+        scene.settings.parallelism = parallelism
         r = render(scene)
         st = r.stats
         raw = raw_embree_rays_per_second(scene, batch, threads)
         raw_mix = (st["rays"] + st["shadow_rays"]) / (st["rays"] / raw["closest"] + st["shadow_rays"] / raw["occluded"])
-        results[threads] = r
-        print(f"  threads={threads}: {r.seconds:6.2f} s  {st['samples_per_second'] / 1e3:7.1f} k samples/s  "
+        results[(threads, parallelism)] = r
+        print(f"  {parallelism} x{threads}: {r.seconds:6.2f} s  {st['samples_per_second'] / 1e3:7.1f} k samples/s  "
               f"{st['vertices_per_second'] / 1e6:5.2f} M vertices/s  {st['rays_per_second'] / 1e6:5.2f} M rays/s "
               f"(closest {st['rays'] / r.seconds / 1e6:.2f} M + shadow {st['shadow_rays'] / r.seconds / 1e6:.2f} M)")
         print(f"             raw embreex: closest {raw['closest'] / 1e6:5.2f} M rays/s, occluded "
               f"{raw['occluded'] / 1e6:5.2f} M rays/s, same mix {raw_mix / 1e6:5.2f} M rays/s -> "
               f"tracing efficiency {st['rays_per_second'] / raw_mix:.3f}")
-    print(f"  speedup 1 -> 2 threads: {results[1].seconds / results[2].seconds:.2f}x")
-    diff = np.abs(results[1].image - results[2].image).max()
-    print(f"  images identical across thread counts: max |diff| = {diff:.2e}")
+    one = results[(1, "threads")]
+    for key in ((2, "threads"), (2, "processes")):
+        print(f"  speedup 1 thread -> 2 {key[1]}: {one.seconds / results[key].seconds:.2f}x, images identical: "
+              f"max |diff| = {np.abs(one.image - results[key].image).max():.1e}")
 
     # peak memory: traced numpy allocations, bounded by the batch (film arrays scale with pixels)
     for res, b in ((128, 1 << 14), (128, 1 << 16), (256, 1 << 14), (256, 1 << 16)):

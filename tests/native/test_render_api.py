@@ -104,3 +104,14 @@ def test_cli_round_trip(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "volpath_native", "render", str(tmp_path / "missing.vpscene"),
                           "-o", str(out)], capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "error" in bad.stderr
+
+
+def test_forked_processes_give_the_same_image_and_honour_cancel():
+    a = render(_scene(batch_size=1000, threads=2))
+    b = render(_scene(batch_size=1000, threads=2, parallelism="processes"))
+    np.testing.assert_allclose(a.image, b.image, rtol=1e-5, atol=1e-7)
+    flag = threading.Event()
+    threading.Timer(0.3, flag.set).start()
+    start = time.perf_counter()
+    c = render(_scene(width=640, height=480, samples=64, threads=2, parallelism="processes"), cancel=flag.is_set)
+    assert c.cancelled and time.perf_counter() - start < 3.0
