@@ -58,10 +58,15 @@ def build_parser() -> argparse.ArgumentParser:
 class TextProgress:
     """A one-line progress bar on stderr."""
 
-    def __init__(self, stream=sys.stderr, width: int = 30):
+    def __init__(self, stream=sys.stderr, width: int = 30, interval: float = 0.25):
         self.stream, self.width, self.start = stream, width, time.perf_counter()
+        self.interval, self.last_write, self.last_message = interval, -1.0, None
 
     def __call__(self, fraction: float, message: str) -> None:
+        now = time.perf_counter()
+        if fraction < 1.0 and message == self.last_message and now - self.last_write < self.interval:
+            return  # renderer rounds can be much faster than anyone reads
+        self.last_write, self.last_message = now, message
         filled = int(round(fraction * self.width))
         elapsed = time.perf_counter() - self.start
         self.stream.write(f"\r[{'#' * filled}{'.' * (self.width - filled)}] {100 * fraction:5.1f}% "

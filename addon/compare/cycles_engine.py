@@ -18,8 +18,8 @@ from typing import Callable, Iterator, Optional
 import bpy
 import numpy as np
 
-# Cycles' largest sample count: used with a time limit for equal-time runs.
-CYCLES_MAX_SAMPLES = 1 << 24
+# Samples of the pilot render that measures Cycles' cost per sample for equal-time runs.
+PILOT_SAMPLES = 8
 
 
 class CyclesUnavailable(RuntimeError):
@@ -138,15 +138,14 @@ class CyclesRun:
     render_seconds: float  # Cycles' own render time (metadata), 0 if unknown
 
 
-def render_once(scene, *, samples: int, seed: int, time_limit: float = 0.0,
-                scratch: Optional[Path] = None) -> CyclesRun:
+def render_once(scene, *, samples: int, seed: int, scratch: Optional[Path] = None) -> CyclesRun:
     """One Cycles render of `scene` (already inside matched_settings) to scene-linear pixels."""
     from volpath_native import imageio
 
     cycles = scene.cycles
     cycles.samples = int(samples)
     cycles.seed = int(seed)
-    cycles.time_limit = float(time_limit)
+    cycles.time_limit = 0.0
     with contextlib.ExitStack() as stack:
         folder = Path(scratch) if scratch else Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="volpath_cycles_")))
         path = folder / f"cycles_seed{seed}.exr"
@@ -158,7 +157,7 @@ def render_once(scene, *, samples: int, seed: int, time_limit: float = 0.0,
             raise RuntimeError(f"Cycles render failed for scene '{scene.name}' ({result})")
         image = imageio.read_exr(path)
         metadata = _exr_metadata(path)
-    achieved = _metadata_number(metadata, ".samples", default=samples if not time_limit else 0)
+    achieved = _metadata_number(metadata, ".samples", default=samples)
     render_seconds = _metadata_seconds(metadata, ".render_time")
     if image.shape[2] == 3:
         image = np.concatenate([image, np.ones(image.shape[:2] + (1,), np.float32)], axis=2)
@@ -167,15 +166,41 @@ def render_once(scene, *, samples: int, seed: int, time_limit: float = 0.0,
 
 def render_runs(scene, *, runs: int, samples: int, base_seed: int, bounces: BounceLimits,
                 time_limit: float = 0.0, resolution: Optional[tuple] = None,
-                progress: Optional[Callable[[int, int], None]] = None) -> list:
-    """`runs` independent Cycles renders (seeds base_seed, base_seed + 1, ...)."""
+                progress: Optional[Callable[[int, int], None]] = None,
+                cancel: Optional[Callable[[], bool]] = None) -> list:
+    """`runs` independent Cycles renders (seeds base_seed, base_seed + 1, ...).
+
+    time_limit > 0: each run renders the sample count that fits that many seconds, measured by a
+    pilot render (Cycles' own time limit would stop on time but does not report how many samples
+    it finished: its metadata stamps the requested count).
+    """
     results = []
     with matched_settings(scene, bounces, resolution):
+        if time_limit > 0:
+            samples = samples_for_budget(scene, time_limit, seed=base_seed + runs)
         for k in range(runs):
-            results.append(render_once(scene, samples=samples, seed=base_seed + k, time_limit=time_limit))
+            if cancel is not None and cancel():
+                raise InterruptedError("comparison cancelled")
+            results.append(render_once(scene, samples=samples, seed=base_seed + k))
             if progress:
                 progress(k + 1, runs)
     return results
+
+
+def samples_for_budget(scene, seconds: float, seed: int) -> int:
+    """Samples per pixel one Cycles render of `scene` fits into `seconds` of wall clock
+    (inside matched_settings): cost per sample from a pilot render, minus its fixed overhead."""
+    pilot_samples = PILOT_SAMPLES
+    while True:
+        pilot = render_once(scene, samples=pilot_samples, seed=seed)
+        render_seconds = pilot.render_seconds if pilot.render_seconds > 0 else pilot.seconds
+        # Cycles stamps times in 1/100 s: grow the pilot until its time is well resolved.
+        if render_seconds >= min(0.5, seconds / 4) or pilot_samples >= 4096:
+            break
+        pilot_samples *= 4
+    per_sample = max(render_seconds / pilot_samples, 1e-6)
+    overhead = max(pilot.seconds - render_seconds, 0.0)
+    return max(1, int((seconds - overhead) / per_sample))
 
 
 def _exr_metadata(path) -> dict:

@@ -91,6 +91,7 @@ class CompareResult:
     cycles: EngineResult
     comparison: metrics.Comparison
     reference_errors: Optional[dict] = None
+    reference_image: Optional[np.ndarray] = field(default=None, repr=False)
     warnings: list = field(default_factory=list)
     outputs: dict = field(default_factory=dict)
 
@@ -156,15 +157,10 @@ def compare_scene(scene, options: CompareOptions, out_dir=None, progress: Option
         time_limit=per_run_seconds, cancel=cancel,
         progress=lambda k, n: bar.at(1 + k, f"VolPath run {min(int(k) + 1, n)}/{n}"))
     bar.done = 1 + options.runs
-    cycles_runs = []
-    with cycles_engine.matched_settings(scene, bounces, options.resolution):
-        for k in range(options.runs):
-            if cancel is not None and cancel():
-                raise InterruptedError("comparison cancelled")
-            cycles_runs.append(cycles_engine.render_once(
-                scene, samples=cycles_engine.CYCLES_MAX_SAMPLES if equal_time else options.samples_per_run,
-                seed=options.seed + k, time_limit=per_run_seconds))
-            bar.step(f"Cycles run {k + 1}/{options.runs}")
+    cycles_runs = cycles_engine.render_runs(
+        scene, runs=options.runs, samples=options.samples_per_run, base_seed=options.seed, bounces=bounces,
+        time_limit=per_run_seconds, resolution=options.resolution, cancel=cancel,
+        progress=lambda k, n: bar.step(f"Cycles run {k}/{n}"))
 
     volpath = EngineResult("VolPath", volpath_runs, metrics.run_statistics([r.image for r in volpath_runs]))
     cycles = EngineResult("Cycles", cycles_runs, metrics.run_statistics([r.image for r in cycles_runs]))
@@ -176,7 +172,9 @@ def compare_scene(scene, options: CompareOptions, out_dir=None, progress: Option
     result = CompareResult(scene_name=name, options=options, volpath=volpath, cycles=cycles,
                            comparison=comparison, warnings=warnings)
     if options.reference:
-        result.reference_errors = reference_errors(options.reference, volpath, cycles)
+        result.reference_image = read_reference(options.reference, volpath.statistics.mean.shape)
+        result.reference_errors = reference_errors(result.reference_image, volpath, cycles)
+        result.reference_errors["path"] = str(options.reference)
     if out_dir is not None:
         write_outputs(result, out_dir)
     bar.step("done")
@@ -193,18 +191,22 @@ def compare_file(blend_path, options: CompareOptions, out_dir=None,
     return compare_scene(bpy.context.scene, options, out_dir, progress)
 
 
-def reference_errors(reference_path, volpath: EngineResult, cycles: EngineResult) -> dict:
+def read_reference(path, shape) -> np.ndarray:
+    """The reference EXR, checked against the renders' (H, W, ...) shape."""
     from volpath_native import imageio
 
-    reference = imageio.read_exr(reference_path)
-    if reference.shape[:2] != volpath.statistics.mean.shape[:2]:
-        raise ValueError(f"reference {reference_path} is {reference.shape[1]}x{reference.shape[0]} px, "
-                         f"the renders are {volpath.statistics.mean.shape[1]}x{volpath.statistics.mean.shape[0]}")
+    reference = imageio.read_exr(path)
+    if reference.shape[:2] != tuple(shape[:2]) or reference.shape[2] < 3:
+        raise ValueError(f"reference {path} is {reference.shape[1]}x{reference.shape[0]} px with "
+                         f"{reference.shape[2]} channels; the renders are {shape[1]}x{shape[0]} RGB")
+    return reference
+
+
+def reference_errors(reference: np.ndarray, volpath: EngineResult, cycles: EngineResult) -> dict:
+    """Each engine's relMSE against the reference and their ratio (< 1: VolPath is closer)."""
     rv = metrics.relmse(volpath.statistics.mean, reference)
     rc = metrics.relmse(cycles.statistics.mean, reference)
-    return {"path": str(reference_path), "relmse_volpath": rv, "relmse_cycles": rc,
-            "error_ratio": rv / rc if rc > 0 else float("inf"),
-            "_image": reference}
+    return {"relmse_volpath": rv, "relmse_cycles": rc, "error_ratio": rv / rc if rc > 0 else float("inf")}
 
 
 def write_outputs(result: CompareResult, out_dir) -> dict:
@@ -226,8 +228,6 @@ def write_outputs(result: CompareResult, out_dir) -> dict:
     result.outputs["report_json"] = out / "report.json"
     result.outputs["report_md"] = out / "report.md"
     data = result.report()
-    if data.get("reference"):
-        data["reference"] = {k: v for k, v in data["reference"].items() if not k.startswith("_")}
     report.write_json(out / "report.json", data)
     report.write_markdown(out / "report.md", data)
     return result.outputs
@@ -247,8 +247,8 @@ def sheet_panels(result: CompareResult, exposure: Optional[float] = None) -> lis
                                caption=f"{100 * agreement.pixel.fraction_passed:.1f}% px pass the t-test"),
     ]]
     ref = result.reference_errors
-    if ref and "_image" in ref:
-        image = ref["_image"]
+    if ref and result.reference_image is not None:
+        image = result.reference_image
         scale = metrics.difference_scale(metrics.signed_relative_difference(c.statistics.mean, image))
         rows.append([
             sheet.render_panel("Reference", image, exposure, ""),

@@ -59,7 +59,7 @@ def difference_panel(title: str, relative_difference: np.ndarray, scale: Optiona
                      caption: str = "") -> Panel:
     scale = metrics.difference_scale(relative_difference) if scale is None else scale
     return Panel(title, metrics.false_colour(relative_difference, scale),
-                 caption or f"blue: first darker, red: first brighter", colour_bar_scale=scale)
+                 caption or "blue: first darker, red: first brighter", colour_bar_scale=scale)
 
 
 def _upscale_factor(width: int) -> int:

@@ -74,7 +74,8 @@ def test_equal_time_and_reference(fog_scene, tmp_path):
     assert ref["relmse_volpath"] > 0 and ref["relmse_cycles"] > 0
     assert ref["error_ratio"] == pytest.approx(ref["relmse_volpath"] / ref["relmse_cycles"])
     report = json.loads((tmp_path / "out" / "report.json").read_text())
-    assert "_image" not in report["reference"] and report["mode"] == "equal-time"
+    assert report["reference"]["path"] == str(reference) and report["mode"] == "equal-time"
+    assert (tmp_path / "out" / "sheet.png").is_file()
 
 
 def test_bad_options_are_rejected():
