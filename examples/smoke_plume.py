@@ -36,7 +36,11 @@ def import_openvdb():
         bundled = os.path.join(bpy.utils.resource_path("LOCAL"), "python", "lib",
                                f"python{sys.version_info.major}.{sys.version_info.minor}", "site-packages")
         sys.path.append(bundled)
-        import openvdb
+        try:
+            import openvdb
+        except ImportError:
+            raise SystemExit(f"smoke_plume needs the openvdb module Blender bundles; this Blender has none "
+                             f"(looked in {bundled}). Use the bpy module or an official Blender build.") from None
     return openvdb
 
 
