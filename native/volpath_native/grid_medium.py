@@ -44,6 +44,9 @@ import numpy as np
 
 from .scene import SceneError, rgb
 
+__all__ = ["GridMedium", "FreeFlight", "MajorantTooLowError", "principled_volume_coefficients",
+           "volume_object_density_factor"]
+
 #: Default number of majorant cells along each axis (capped by the grid resolution).
 DEFAULT_MAJORANT_RESOLUTION = 16
 
@@ -90,9 +93,8 @@ class FreeFlight:
     t: (N,) distance of the event (t_max where no scatter happened).
     scattered: (N,) True where a real scattering collision was sampled at t.
     weight: (N,3) factor for the path throughput: at a scatter vertex it already contains
-        sigma_s / pdf (the integrator then samples the phase function); otherwise it is the
-        transmittance estimate to t_max (1 in expectation-free media, i.e. identically 1 outside
-        the grid).
+        sigma_s / pdf (the integrator then samples the phase function); otherwise it is an
+        unbiased transmittance estimate over [t_min, t_max] (exactly 1 for rays missing the grid).
     emission: (N,3) estimate of the emitted radiance collected along [t_min, t]; multiply by the
         path throughput *before* this segment.
     """
