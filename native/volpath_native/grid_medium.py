@@ -42,7 +42,7 @@ from typing import Optional
 
 import numpy as np
 
-from .scene import SceneError, rgb
+from .scene import Mesh, SceneError, rgb
 
 __all__ = ["GridMedium", "FreeFlight", "MajorantTooLowError", "principled_volume_coefficients",
            "volume_object_density_factor"]
@@ -269,6 +269,20 @@ class GridMedium:
         corners = np.array([[x, y, z, 1.0] for x in (0, 1) for y in (0, 1) for z in (0, 1)])
         corners[:, :3] *= (self.shape - 1)
         return (corners @ self.index_to_world.T)[:, :3]
+
+    # Faces of the corner cube above (corner index = 4x + 2y + z), counter-clockwise from outside.
+    _BOX_TRIANGLES = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5],    # x = 0, x = 1
+                               [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6],    # y = 0, y = 1
+                               [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])   # z = 0, z = 1
+
+    def boundary_mesh(self, material_id: int) -> Mesh:
+        """A closed box mesh (outward normals) around the medium, for a null-surface material whose
+        medium is this grid: the volume-stack boundary, as Cycles' volume bounds mesh."""
+        triangles = self._BOX_TRIANGLES
+        if np.linalg.det(self.index_to_world[:3, :3]) < 0:  # a mirroring transform flips winding
+            triangles = triangles[:, ::-1]
+        return Mesh(f"{self.name} bounds", self.box_corners_world(), triangles,
+                    np.full(len(triangles), int(material_id), dtype=np.int32))
 
     # ------------------------------------------------------------------------------------------
     # Serialisation (for the .vpscene format: a JSON header plus named arrays)

@@ -352,3 +352,21 @@ def test_record_round_trip_gives_an_identical_medium():
     assert copy.g == medium.g
     with pytest.raises(SceneError):
         GridMedium.from_record({"type": "grid", "name": "x"}, {})
+
+
+@pytest.mark.parametrize("mirror", [False, True])
+def test_boundary_mesh_is_closed_with_outward_normals(mirror):
+    transform = rotated_transform()
+    if mirror:
+        transform = transform @ np.diag([-1.0, 1.0, 1.0, 1.0])
+    medium = GridMedium("box", np.ones((4, 5, 6), np.float32), transform, 1.0, 0.0)
+    mesh = medium.boundary_mesh(material_id=3)
+    assert mesh.open_edge_count() == 0 and np.all(mesh.material_ids == 3)
+    v = mesh.vertices[mesh.triangles].astype(np.float64)
+    normals = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    outward = v.mean(axis=1) - mesh.vertices.mean(axis=0)
+    assert np.all(np.einsum("ij,ij->i", normals, outward) > 0)
+    # The box holds every point where the density is non-zero.
+    lo, hi = medium.world_bounds()
+    np.testing.assert_allclose(mesh.vertices.min(axis=0), lo, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(mesh.vertices.max(axis=0), hi, rtol=1e-6, atol=1e-6)
