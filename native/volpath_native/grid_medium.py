@@ -457,18 +457,23 @@ class GridMedium:
         state = self._dda_setup(origins, dirs, t_min, t_max)
         rays = np.flatnonzero(state.active)
         state = state.subset(rays)
+        rate_flat = rate_grid.ravel()
+        control_flat = control[0].reshape(-1, 3) if control is not None else None
+        _, ry, rz = self.majorant_shape
         while len(rays):
             cells = state.voxel
-            rate = rate_grid[cells[:, 0], cells[:, 1], cells[:, 2]]
-            cell_end = np.minimum(state.next_t.min(axis=1), state.t_exit)
+            cell_index = (cells[:, 0] * ry + cells[:, 1]) * rz + cells[:, 2]
+            rate = rate_flat[cell_index]
+            axis = np.argmin(state.next_t, axis=1)
+            crossing = state.next_t[np.arange(len(rays)), axis]
+            cell_end = np.minimum(crossing, state.t_exit)
             with np.errstate(divide="ignore"):
                 step = -np.log1p(-rng.random(len(rays))) / rate
             t_candidate = state.t + step
             collided = t_candidate < cell_end
             if control is not None:
-                control_grid, depth = control
                 reached = np.where(collided, t_candidate, cell_end)
-                depth[rays] += control_grid[cells[:, 0], cells[:, 1], cells[:, 2]] * (reached - state.t)[:, None]
+                control[1][rays] += control_flat[cell_index] * (reached - state.t)[:, None]
             stopped = np.zeros(len(rays), dtype=bool)
             if np.any(collided):
                 c = np.flatnonzero(collided)
@@ -476,7 +481,7 @@ class GridMedium:
                 points = origins[rays[c]] + dirs[rays[c]] * t_candidate[c, None]
                 stopped[c] = on_collision(rays[c], points, t_candidate[c], rate[c], cells[c])
             moving = np.flatnonzero(~collided)
-            state.advance(moving, self.majorant_shape)
+            state.advance(moving, self.majorant_shape, axis[moving], crossing[moving])
             keep = state.active & ~stopped
             if not keep.all():  # compact only when some rays finished
                 rays = rays[keep]
@@ -583,6 +588,8 @@ class _DDAState:
     crossing spacing per axis, step direction, current t and the segment end."""
 
     def __init__(self, voxel, next_t, delta_t, step, t, t_exit, active):
+        # C-contiguous, so advance() can update them through flat views.
+        voxel, next_t, delta_t, step = (np.ascontiguousarray(a) for a in (voxel, next_t, delta_t, step))
         self.voxel, self.next_t, self.delta_t, self.step = voxel, next_t, delta_t, step
         self.t, self.t_exit, self.active = t, t_exit, active
 
@@ -590,15 +597,20 @@ class _DDAState:
         return _DDAState(self.voxel[keep], self.next_t[keep], self.delta_t[keep], self.step[keep],
                          self.t[keep], self.t_exit[keep], self.active[keep])
 
-    def advance(self, rows, resolution):
+    def advance(self, rows, resolution, axis=None, crossing=None):
         """Step rows into the next cell along the axis of the nearest crossing (pbrt-v4 Next());
-        rows whose segment or grid ends become inactive."""
+        rows whose segment or grid ends become inactive. axis/crossing: that axis and crossing
+        distance per row when the caller already has them."""
         if len(rows) == 0:
             return
-        axis = np.argmin(self.next_t[rows], axis=1)
-        crossing = self.next_t[rows, axis]
+        if axis is None:
+            axis = np.argmin(self.next_t[rows], axis=1)
+            crossing = self.next_t[rows, axis]
+        flat = rows * 3 + axis  # (n,3) arrays are C-contiguous: index their flat views
         self.t[rows] = np.minimum(crossing, self.t_exit[rows])
-        self.voxel[rows, axis] += self.step[rows, axis]
-        self.next_t[rows, axis] += self.delta_t[rows, axis]
-        left_grid = (self.voxel[rows, axis] < 0) | (self.voxel[rows, axis] >= resolution[axis])
+        voxel = self.voxel.reshape(-1)
+        voxel[flat] += self.step.reshape(-1)[flat]
+        self.next_t.reshape(-1)[flat] += self.delta_t.reshape(-1)[flat]
+        moved = voxel[flat]
+        left_grid = (moved < 0) | (moved >= resolution[axis])
         self.active[rows] &= ~(left_grid | (crossing >= self.t_exit[rows]))
