@@ -122,3 +122,27 @@ def test_cli_run(tmp_path, registered_addon):
     missing = subprocess.run([sys.executable, "-m", "addon.compare", "run", str(tmp_path / "nope.blend"),
                               "--out", str(out)], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert missing.returncode == 1 and "no such .blend" in missing.stderr
+
+
+def test_cli_demo_tiny(tmp_path):
+    """`make demo`'s command, shrunk: builds the Cornell fog scene, renders both, writes everything."""
+    proc = subprocess.run([sys.executable, "-m", "addon.compare", "demo", "--out", str(tmp_path),
+                           "--resolution", "16x16", "--spp", "8", "--runs", "2"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    for name in ("cornell_fog.blend", "volpath.exr", "cycles.exr", "sheet.png", "report.json", "report.md"):
+        assert (tmp_path / name).is_file(), name
+    assert "100.0%" in proc.stderr  # the progress bar reached the end
+    assert "Fra:" not in proc.stdout  # Cycles' per-sample chatter is kept off the terminal
+
+
+def test_batch_script_with_albedo_grid(tmp_path):
+    proc = subprocess.run([sys.executable, "examples/render_all.py", str(tmp_path), "--resolution", "8x8",
+                           "--spp", "4", "--runs", "2", "--only", "cornell_fog", "albedo_grid"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert proc.returncode in (0, 1), proc.stderr[-2000:]  # 1 = some scene disagrees (4 spp: noise only)
+    assert (tmp_path / "summary.md").is_file()
+    assert (tmp_path / "albedo_grid" / "albedo_grid.png").is_file()
+    cells = json.loads((tmp_path / "albedo_grid" / "albedo_grid.json").read_text())
+    assert len(cells) == 9
+    assert (tmp_path / "blend" / "cornell_fog.blend").is_file()
