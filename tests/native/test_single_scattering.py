@@ -87,3 +87,77 @@ def test_equiangular_mis_agrees_with_distance_sampling_and_has_lower_variance():
     equi = render(_scene(0.3, "equiangular", samples=64, seed=3, light=near))
     z = z_scores(equi.image[..., :3], equi.variance, dist.image[..., :3], dist.variance)
     assert np.abs(z).max() < Z_LIMIT, np.abs(z).max()
+
+
+def _quadrature_extended(scene, g, radius, sphere):
+    """Single scattering from a sphere light (sphere=True, radiance L over its visible cone) or a
+    soft-falloff disk (facing each point) of radius r: 2D Gauss-Legendre over the light for each
+    point of a 1D Gauss-Legendre along the camera ray."""
+    cam = CameraModel(scene.camera, scene.film)
+    ys, xs = np.mgrid[0:SIZE, 0:SIZE] + 0.5
+    o, d, _ = cam.generate_rays(xs.ravel(), ys.ravel())
+    st = SIGMA_S + SIGMA_A
+    radiance = POWER / (4 * np.pi ** 2 * radius ** 2)
+    xt, wt = np.polynomial.legendre.leggauss(160)
+    xa, wa = np.polynomial.legendre.leggauss(16)
+    out = np.zeros((len(d), 3))
+    for i, (oi, di) in enumerate(zip(o, d)):
+        delta = (LIGHT - oi) @ di
+        dist = max(np.linalg.norm(oi + delta * di - LIGHT), radius * 1.01)
+        ta, tb = np.arctan2(-delta, dist), np.pi / 2
+        th = 0.5 * (tb - ta) * xt + 0.5 * (tb + ta)
+        t = delta + dist * np.tan(th)
+        jac_t = 0.5 * (tb - ta) * dist / np.cos(th) ** 2
+        p = oi + t[:, None] * di
+        to_c = LIGHT - p
+        D = np.linalg.norm(to_c, axis=1)
+        axis = to_c / D[:, None]
+        # tangent frame around the axis
+        helper = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+        u = np.cross(axis, helper)
+        u /= np.linalg.norm(u, axis=1)[:, None]
+        v = np.cross(axis, u)
+        phi = np.pi * (xa + 1)            # [0, 2 pi)
+        wphi = np.pi * wa
+        if sphere:
+            alpha = np.arcsin(np.clip(radius / D, 0, 1))
+            theta = 0.5 * alpha[:, None] * (xa[None, :] + 1)          # (T, A)
+            wth = 0.5 * alpha[:, None] * wa[None, :] * np.sin(theta)
+            ct, stt = np.cos(theta), np.sin(theta)
+            w_dir = (ct[:, :, None, None] * axis[:, None, None, :]
+                     + stt[:, :, None, None] * (np.cos(phi)[None, None, :, None] * u[:, None, None, :]
+                                               + np.sin(phi)[None, None, :, None] * v[:, None, None, :]))
+            s = D[:, None] * ct - np.sqrt(np.maximum(radius ** 2 - (D[:, None] * stt) ** 2, 0))
+            s = np.broadcast_to(s[:, :, None], w_dir.shape[:3])
+            weight = wth[:, :, None] * wphi[None, None, :]
+        else:
+            rho = 0.5 * radius * (xa + 1)
+            wrho = 0.5 * radius * wa * rho
+            pts = (LIGHT[None, None, None, :] + rho[None, :, None, None] *
+                   (np.cos(phi)[None, None, :, None] * u[:, None, None, :] + np.sin(phi)[None, None, :, None] * v[:, None, None, :]))
+            vec = pts - p[:, None, None, :]
+            s = np.linalg.norm(vec, axis=3)
+            w_dir = vec / s[..., None]
+            weight = (wrho[None, :, None] * wphi[None, None, :]) * D[:, None, None] / s ** 3  # dA cos / s^2
+        cos = np.einsum("tabk,k->tab", w_dir, di)
+        f = hg_eval(g, cos) * weight
+        inner = np.einsum("tab,tabc->tc", f, np.exp(-s[..., None] * st))
+        out[i] = (np.exp(-np.outer(t, st)) * SIGMA_S * radiance * inner * (wt * jac_t)[:, None]).sum(axis=0)
+    return out.reshape(SIZE, SIZE, 3)
+
+
+@pytest.mark.parametrize("sphere", [True, False])
+def test_single_scattering_from_sphere_and_soft_falloff_lights(sphere):
+    """The lamps Blender creates by default (radius 0.1 m, soft falloff) and true spheres are hit
+    by phase-sampled rays too: light-sampling NEE and phase sampling must combine to the exact
+    single scattering (quadrature over the lamp and along the ray)."""
+    from volpath_native import PointLight as PL
+    radius, g = 0.4, 0.5
+    scene = _scene(g, samples=256)
+    scene.lights = [PL("lamp", LIGHT, power=POWER, radius=radius, soft_falloff=not sphere, visible_camera=False)]
+    result = render(scene)
+    expected = _quadrature_extended(scene, g, radius, sphere)
+    z = z_scores(result.image[..., :3], result.variance, expected)
+    assert np.abs(z).max() < Z_LIMIT, (np.abs(z).max(), result.image[..., 1].mean(), expected[..., 1].mean())
+    z_wrong = z_scores(result.image[..., :3], result.variance, 1.1 * expected)
+    assert np.all((z_wrong ** 2).sum(axis=(0, 1)) > chi2_critical(SIZE * SIZE))
