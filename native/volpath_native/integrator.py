@@ -11,10 +11,11 @@ Estimators and their references:
   media.h / Cycles shade_volume.h); see media.py.
 - direct light in media: a separate NEE vertex per segment whose distance is drawn from
   equiangular (toward the chosen light) or distance sampling, combined by one-sample MIS with the
-  mixture (balance) pdf (Kulla & Fajardo 2012; Cycles shade_volume.h "volume_integrate_..." with
-  equiangular + distance MIS); light vs phase sampling combined with the power heuristic.
+  mixture (balance) pdf (Kulla & Fajardo 2012; Cycles kernel/integrator/shade_volume.h,
+  volume_equiangular_sample / volume_equiangular_pdf, which weights with the power heuristic
+  instead); light vs phase sampling combined with the power heuristic.
 - light vs BSDF/phase sampling for hittable emitters: power heuristic (Veach 1997; Cycles
-  light/common.h / integrator/mis.h). Both NEE vertices use weights that depend only on the
+  kernel/sample/mis.h power_heuristic). Both NEE vertices use weights that depend only on the
   (vertex, direction) pair, so the two estimators sum to the direct light exactly.
 - bounce limits: Cycles' path_state.h: after a scatter the counters grow; exceeding a limit sets
   "terminate after transparent" (the path still crosses null boundaries and collects emission
