@@ -18,8 +18,9 @@ def build(resolution=(64, 64), samples=64, anisotropy=0.7, density=0.4, albedo=0
     sb.add_quad(scene, "Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], floor)
     fog = sb.principled_volume_material("Fog", density=density, color=(albedo,) * 3, anisotropy=anisotropy)
     sb.add_box(scene, "Fog", (0.0, 0.0, 1.0), (2.0, 2.0, 1.98), fog)
-    # Behind the fog as seen from the camera, a little off-axis.
-    sb.add_point_light(scene, (0.3, 0.6, 1.3), power_w=300.0)
+    # Behind the fog (outside it) as seen from the camera, a little off-axis: light reaching the
+    # camera is mostly scattered by small angles (g > 0) or large ones (g < 0).
+    sb.add_point_light(scene, (0.3, 1.4, 1.3), power_w=300.0)
     sb.add_camera(scene, (0.0, -5.0, 1.1), (0.0, 0.0, 1.0), lens_mm=35.0)
     return scene
 
