@@ -440,3 +440,40 @@ def test_single_scattering_of_a_sunlit_volume_matches_cycles(openvdb, tmp_path, 
         difference = np.sum(weights * (ours - theirs), axis=(0, 1))
         stderr = np.sqrt(np.sum(weights ** 2 * (our_variance + their_variance), axis=(0, 1)))
         assert np.all(np.abs(difference) < 4.0 * stderr), (name, difference, stderr, theirs.sum(axis=(0, 1)))
+
+
+def test_geometry_nodes_mesh_to_volume_is_exported(clean_scene):
+    """A mesh object whose modifiers output a volume (Mesh to Volume) shows up as a VOLUME instance
+    of the evaluated depsgraph; its evaluated grid is what gets exported."""
+    import bmesh
+    mesh = bpy.data.meshes.new("Cube")
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=1.0)
+    bm.to_mesh(mesh)
+    bm.free()
+    obj = bpy.data.objects.new("CubeToVolume", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    tree = bpy.data.node_groups.new("ToVolume", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    group_in, group_out = tree.nodes.new("NodeGroupInput"), tree.nodes.new("NodeGroupOutput")
+    to_volume = tree.nodes.new("GeometryNodeMeshToVolume")
+    tree.links.new(group_in.outputs[0], to_volume.inputs["Mesh"])
+    tree.links.new(to_volume.outputs[0], group_out.inputs[0])
+    obj.modifiers.new("ToVolume", "NODES").node_group = tree
+    obj.location = (2.0, 0.0, 0.0)
+    try:
+        warnings = []
+        exported = evg.export_volume_objects(bpy.context.evaluated_depsgraph_get(), warnings)
+        assert [e.object_name for e in exported] == ["CubeToVolume"], warnings
+        grid = exported[0].grids["density"]
+        assert grid.data.max() == pytest.approx(1.0)
+        medium = evg.grid_medium_from_volume(exported[0], warnings)
+        inside = medium.density_at(np.array([[2.0, 0.0, 0.0], [2.1, 0.1, -0.1]]))
+        outside = medium.density_at(np.array([[2.0, 0.0, 0.7], [1.2, 0.0, 0.0]]))
+        np.testing.assert_allclose(inside, 1.0, atol=1e-6)
+        np.testing.assert_allclose(outside, 0.0, atol=1e-6)
+    finally:
+        bpy.data.objects.remove(obj)
+        bpy.data.meshes.remove(mesh)
+        bpy.data.node_groups.remove(tree)
