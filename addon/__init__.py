@@ -18,7 +18,7 @@ bl_info = {  # read by Blender < 4.2; 4.2+ reads blender_manifest.toml
 
 import bpy  # noqa: E402  (bl_info must come first for Blender's legacy add-on scanner)
 
-from . import engine, properties, ui  # noqa: E402
+from . import compat, engine, properties, ui  # noqa: E402
 
 _registered = False
 _compare = None  # the optional comparison package (addon/compare), when present
@@ -41,6 +41,7 @@ def register():
     global _registered, _compare
     if _registered:
         return
+    compat.isolate_embree()  # before anything (the comparison tools too) imports the renderer
     properties.register()
     engine.register()
     ui.register()

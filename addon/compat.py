@@ -2,6 +2,9 @@
 place. The rest of the add-on asks these helpers instead of testing bpy.app.version itself."""
 from __future__ import annotations
 
+import os
+import sys
+
 import bpy
 import numpy as np
 
@@ -83,3 +86,41 @@ def light_soft_falloff(light) -> bool:
     """Blender 4.0 made point/spot lights true spheres and added "Soft Falloff" (default on) to
     keep the earlier behaviour; before 4.0 that earlier behaviour is the only one."""
     return bool(getattr(light, "use_soft_falloff", True))
+
+
+def isolate_embree() -> bool:
+    """Import embreex so that it binds to its own bundled Embree 4.
+
+    Blender builds that link Embree 3 as a shared library (Debian's 3.4 package) export rtc*
+    symbols under the same names; the embreex extension modules would bind to those and crash on
+    the first ray. Loaded with RTLD_DEEPBIND they resolve against their own libraries first.
+    Only done when a shared Embree is already in the process (the bpy module links it statically).
+    Returns True when the isolation was applied."""
+    if not sys.platform.startswith("linux") or "embreex.rtcore_scene" in sys.modules:
+        return False
+    try:
+        with open("/proc/self/maps", encoding="utf-8", errors="replace") as maps:
+            if "libembree" not in maps.read():
+                return False
+    except OSError:
+        return False
+    flags = sys.getdlopenflags()
+    sys.setdlopenflags(flags | os.RTLD_DEEPBIND)
+    try:
+        import embreex.rtcore  # noqa: F401
+        import embreex.rtcore_scene  # noqa: F401
+        import embreex.mesh_construction  # noqa: F401
+    except ImportError:
+        return False  # reported when the renderer itself fails to import
+    finally:
+        sys.setdlopenflags(flags)
+    return True
+
+
+def set_pass_pixels(render_pass, pixels: np.ndarray):
+    """Write (N, 4) float32 pixels into RenderPass.rect. Blender 4+ takes one flat buffer with
+    foreach_set; 3.x counts rect's outer dimension (pixels), so it gets the pixel rows."""
+    try:
+        render_pass.rect.foreach_set(np.ascontiguousarray(pixels).reshape(-1))
+    except TypeError:
+        render_pass.rect = pixels

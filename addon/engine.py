@@ -11,6 +11,8 @@ import traceback
 import bpy
 import numpy as np
 
+from . import compat
+
 
 class VolpathRenderEngine(bpy.types.RenderEngine):
     bl_idname = "VOLPATH"
@@ -21,6 +23,7 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
     bl_use_shading_nodes_custom = False  # Blender's own shader nodes are our materials
 
     def render(self, depsgraph):
+        compat.isolate_embree()
         try:
             import volpath_native as vp
             from volpath_native.render import render as render_scene
@@ -63,7 +66,7 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             self.update_result(result)
 
         try:
-            output = render_scene(scene, progress=progress, cancel=self.test_break, partial=partial)
+            output = render_scene(scene, progress=progress, cancel=self.cancel_requested, partial=partial)
         except vp.SceneError as error:
             self.end_result(result)
             self._fail(str(error))
@@ -81,6 +84,10 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         self.end_result(result)
         done = "cancelled" if output.cancelled else "done"
         self.update_stats("", f"VolPath | {done}: {output.samples}/{total} samples in {output.seconds:.1f} s")
+
+    def cancel_requested(self) -> bool:
+        """Esc in Blender (polled by the renderer several times a second)."""
+        return self.test_break()
 
     def _report_size_mismatch(self, image, result):
         if not getattr(self, "_size_reported", False):
@@ -108,7 +115,7 @@ def _write_combined(result, image: np.ndarray) -> bool:
     pixels = np.zeros((height, width, 4), dtype=np.float32)
     h, w = min(height, image.shape[0]), min(width, image.shape[1])
     pixels[:h, :w] = image[:h, :w, :4]
-    combined.rect.foreach_set(pixels[::-1].reshape(-1))
+    compat.set_pass_pixels(combined, pixels[::-1].reshape(-1, 4))
     return image.shape[:2] == (height, width)
 
 

@@ -70,21 +70,21 @@ def captured(monkeypatch):
 
 def test_cancel_stops_within_a_second(scene, captured, monkeypatch):
     _fog_scene(scene)
-    scene.render.resolution_x = scene.render.resolution_y = 64
-    scene.volpath.samples = 100000
+    scene.render.resolution_x = scene.render.resolution_y = 32
+    scene.volpath.samples = 2000  # tens of seconds: bounded even if cancelling were broken
     cancel_at = []
 
-    def test_break(self):
-        # Esc pressed 0.3 s into the render.
+    def esc_pressed(self):
+        # Blender's test_break() is never true in background mode: Esc "pressed" 0.3 s in.
         if not cancel_at:
             cancel_at.append(time.perf_counter() + 0.3)
         return time.perf_counter() > cancel_at[0]
 
-    monkeypatch.setattr(VolpathRenderEngine, "test_break", test_break, raising=False)
+    monkeypatch.setattr(VolpathRenderEngine, "cancel_requested", esc_pressed)
     bpy.ops.render.render()
     returned = time.perf_counter()
     assert captured and captured[0].cancelled
-    assert 0 <= captured[0].samples < 100000
+    assert 0 <= captured[0].samples < 2000
     assert returned - cancel_at[0] < 1.0
 
 
