@@ -108,6 +108,8 @@ def matched_settings(scene, bounces: BounceLimits, resolution: Optional[tuple] =
         snapshot.set(cycles, "transparent_max_bounces", bounces.transparent_bounces)
         snapshot.set(render, "use_persistent_data", False)
         snapshot.set(render, "film_transparent", False)
+        # With a render border, VolPath renders just the region: make Cycles' file the region too.
+        snapshot.set(render, "use_crop_to_border", True)
         snapshot.set(render, "use_compositing", False)
         snapshot.set(render, "use_sequencer", False)
         if resolution is not None:

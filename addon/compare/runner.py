@@ -147,6 +147,10 @@ def compare_scene(scene, options: CompareOptions, out_dir=None, progress: Option
     bar = _Progress(progress, 2 * options.runs + 2)
     bar.report("exporting the scene for VolPath")
     native_scene, warnings = volpath_engine.export(scene, options.resolution)
+    reference_image = None
+    if options.reference:  # a wrong reference should fail before minutes of rendering, not after
+        film = native_scene.film
+        reference_image = read_reference(options.reference, _film_shape(film))
     bar.step("exported")
     bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
     equal_time = options.mode == "equal-time"
@@ -171,8 +175,8 @@ def compare_scene(scene, options: CompareOptions, out_dir=None, progress: Option
     name = Path(bpy.data.filepath).stem if bpy.data.filepath else scene.name
     result = CompareResult(scene_name=name, options=options, volpath=volpath, cycles=cycles,
                            comparison=comparison, warnings=warnings)
-    if options.reference:
-        result.reference_image = read_reference(options.reference, volpath.statistics.mean.shape)
+    if reference_image is not None:
+        result.reference_image = reference_image
         result.reference_errors = reference_errors(result.reference_image, volpath, cycles)
         result.reference_errors["path"] = str(options.reference)
     if out_dir is not None:
@@ -189,6 +193,14 @@ def compare_file(blend_path, options: CompareOptions, out_dir=None,
         raise FileNotFoundError(f"no such .blend file: {blend_path}")
     bpy.ops.wm.open_mainfile(filepath=str(blend_path.resolve()))
     return compare_scene(bpy.context.scene, options, out_dir, progress)
+
+
+def _film_shape(film) -> tuple:
+    """(H, W) of what both engines render: the border region when there is one."""
+    from volpath_native.camera import crop_window
+
+    _, _, width, height = crop_window(film)
+    return height, width
 
 
 def read_reference(path, shape) -> np.ndarray:

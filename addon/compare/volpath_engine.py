@@ -74,13 +74,17 @@ def render_runs(native_scene, *, runs: int, samples: int, base_seed: int, time_l
             settings.samples = EQUAL_TIME_SAMPLE_CAP if time_limit > 0 else int(samples)
             start = time.perf_counter()
             deadline = start + time_limit if time_limit > 0 else None
+            rounds_done = [0]
 
             def should_stop() -> bool:
                 if cancel is not None and cancel():
                     return True
-                return deadline is not None and time.perf_counter() >= deadline
+                # The clock only stops a run that has at least one complete round: a run of zero
+                # samples has no image (it overshoots the budget by at most one round, reported).
+                return deadline is not None and rounds_done[0] > 0 and time.perf_counter() >= deadline
 
             def run_progress(done, total, stats, k=k, start=start):
+                rounds_done[0] = done
                 if progress:
                     fraction = (time.perf_counter() - start) / time_limit if time_limit > 0 else done / max(total, 1)
                     progress(k + min(fraction, 1.0), runs)
@@ -90,7 +94,7 @@ def render_runs(native_scene, *, runs: int, samples: int, base_seed: int, time_l
             if cancel is not None and cancel():
                 raise InterruptedError("comparison cancelled")
             if result.samples < 1:
-                raise RuntimeError("VolPath produced no samples within the time limit; give it more time")
+                raise RuntimeError("VolPath returned no samples")
             results.append(VolPathRun(image=np.asarray(result.image, np.float32), samples=int(result.samples),
                                       seconds=seconds, render_seconds=float(result.seconds),
                                       variance=getattr(result, "variance", None)))

@@ -146,3 +146,15 @@ def test_batch_script_with_albedo_grid(tmp_path):
     cells = json.loads((tmp_path / "albedo_grid" / "albedo_grid.json").read_text())
     assert len(cells) == 9
     assert (tmp_path / "blend" / "cornell_fog.blend").is_file()
+
+
+def test_render_border_compares_the_region(fog_scene):
+    """With a border, VolPath renders only the region; Cycles' output is cropped to match."""
+    from addon.compare import runner
+
+    render = fog_scene.render
+    render.use_border, render.use_crop_to_border = True, False
+    render.border_min_x, render.border_max_x, render.border_min_y, render.border_max_y = 0.25, 0.75, 0.5, 1.0
+    result = runner.compare_scene(fog_scene, runner.CompareOptions(samples=4, runs=2))
+    assert result.volpath.statistics.mean.shape == result.cycles.statistics.mean.shape == (8, 8, 3)
+    assert render.use_crop_to_border is False  # the user's setting is back
