@@ -67,7 +67,8 @@ class PathState:
     """Structure of arrays for the paths still alive."""
 
     FIELDS = ("pid", "key", "o", "d", "tmax", "beta", "counts", "bounce", "diffuse", "volume",
-              "bounds", "tat", "prev_pdf", "prev_pos", "travelled", "event", "lead")
+              "bounds", "tat", "prev_pdf", "prev_pos", "travelled", "event", "lead",
+              "m_ss", "m_st", "m_em", "m_g")  # m_*: homogeneous coefficients of the current stack
 
     def __init__(self, **arrays):
         for k in self.FIELDS:
@@ -81,7 +82,9 @@ class PathState:
         if len(idx) == len(self.pid):
             return
         for k in self.FIELDS:
-            setattr(self, k, getattr(self, k)[idx])
+            value = getattr(self, k)
+            if value is not None:
+                setattr(self, k, value[idx])
 
 
 class Integrator:
@@ -138,7 +141,9 @@ class Integrator:
                       counts=counts, bounce=zeros_i.copy(), diffuse=zeros_i.copy(),
                       volume=zeros_i.copy(), bounds=zeros_i.copy(), tat=np.zeros(n, bool),
                       prev_pdf=np.zeros(n), prev_pos=o.copy(), travelled=np.zeros(n),
-                      event=zeros_i.copy(), lead=np.zeros(n))
+                      event=zeros_i.copy(), lead=np.zeros(n), m_ss=None, m_st=None, m_em=None, m_g=None)
+        if self.media.any_medium:
+            S.m_ss, S.m_st, S.m_em, S.m_g = self.media.coefficients(counts)
         L = np.zeros((n, 3))
         self._cancel = cancel
         while len(S):
@@ -170,7 +175,7 @@ class Integrator:
         t_scatter = np.full(n, np.inf)
         survive_p = None
         if self.media.any_medium:
-            sig_s, sig_t, emis, g = self.media.coefficients(S.counts)
+            sig_s, sig_t, emis, g = S.m_ss, S.m_st, S.m_em, S.m_g
             in_med = (max3(sig_t) > 0) | (max3(emis) > 0)
         else:
             in_med = np.zeros(n, bool)
@@ -209,7 +214,9 @@ class Integrator:
                 k = samp[~sc]
                 _, surv, tr = md.distance_pdf(sig_t[k], p[~sc], t_seg[k])
                 S.beta[k] = np.where(surv[:, None] > 0, S.beta[k] * tr / np.where(surv > 0, surv, 1.0)[:, None], 0.0)
-            att = np.nonzero(in_med & ~np.isin(np.arange(n), samp) & ~in_grid)[0]
+            sampled_mask = np.zeros(n, bool)
+            sampled_mask[samp] = True
+            att = np.nonzero(in_med & ~sampled_mask & ~in_grid)[0]
             if len(att):
                 S.beta[att] = S.beta[att] * md.transmittance(sig_t[att], t_seg[att])
             G = np.nonzero(in_grid)[0]
@@ -317,6 +324,8 @@ class Integrator:
             sub = S.counts[a]
             self.media.cross(sub, prim[null], front[null])
             S.counts[a] = sub
+            if self.media.any_medium:
+                S.m_ss[a], S.m_st[a], S.m_em[a], S.m_g[a] = self.media.coefficients(sub)
             S.o[a] = p[null] + S.d[a] * eps
             S.lead[a] = eps
             S.travelled[a] += t[null] + eps
@@ -342,11 +351,11 @@ class Integrator:
         # terminate-after-transparent paths end here
         done = S.tat[b]
         keep = ~done
-        n_face = np.where(frontb[:, None], ngb, -ngb)
+        n_face = ngb * np.where(frontb, 1.0, -1.0)[:, None]
         origin = pb + n_face * eps
         albedo = self.mat_albedo[self.accel.material_ids[primb]]
         ns = accel.shading_normals(primb, hits.u[b], hits.v[b]) if accel.has_smooth else ngb
-        ns = np.where((_dot(ns, n_face) < 0)[:, None], -ns, ns)
+        ns = ns * np.where(_dot(ns, n_face) < 0, -1.0, 1.0)[:, None]
         diffuse = keep & any_positive(albedo)
         i = np.nonzero(diffuse)[0]
         if len(i) and self.lights.count:
@@ -359,7 +368,8 @@ class Integrator:
             contrib = S.beta[bi] * f * ls.value * (w * above)[:, None]
             nz = np.nonzero(any_positive(contrib))[0]
             if len(nz):
-                tr = self._shadow(origin[i][nz], ls.wi[nz], ls.dist[nz], S.counts[bi[nz]], ctx)
+                tr = self._shadow(origin[i][nz], ls.wi[nz], ls.dist[nz], S.counts[bi[nz]], ctx,
+                                  S.m_st[bi[nz]] if S.m_st is not None else None)
                 L[S.pid[bi[nz]]] += contrib[nz] * tr
         # continue with a cosine-sampled direction
         wi, weight, pdf = lambert_sample(albedo[i], ns[i], self._u(S, D_BSDF_U, b[i]), self._u(S, D_BSDF_V, b[i]))
@@ -414,10 +424,10 @@ class Integrator:
         contrib = beta * md.transmittance(sig_t, t) * sig_s * (phase * scale)[:, None] * ls.value
         nz = np.nonzero(any_positive(contrib))[0]
         if len(nz):
-            tr = self._shadow(x[nz], ls.wi[nz], ls.dist[nz], S.counts[i[nz]], ctx)
+            tr = self._shadow(x[nz], ls.wi[nz], ls.dist[nz], S.counts[i[nz]], ctx, sig_t[nz])
             L[S.pid[i[nz]]] += contrib[nz] * tr
 
-    def _shadow(self, origin, wi, dist, counts, ctx):
+    def _shadow(self, origin, wi, dist, counts, ctx, sig_t=None):
         """Transmittance (N,3) from origin toward wi over dist, through null boundaries and media."""
         n = len(origin)
         eps = self.accel.epsilon
@@ -428,7 +438,8 @@ class Integrator:
             ctx.stats["shadow_rays"] += n
             blocked = self.accel.occluded(origin, wi, remaining)
             if self.media.any_medium:
-                _, sig_t, _, _ = self.media.coefficients(counts)
+                if sig_t is None:
+                    _, sig_t, _, _ = self.media.coefficients(counts)
                 T *= md.transmittance(sig_t, remaining + margin)
             T[blocked] = 0.0
             return T
@@ -436,6 +447,7 @@ class Integrator:
         origin = origin.copy()
         alive = np.arange(n)
         lead = np.zeros(n)
+        seg_sig_t = sig_t  # coefficients of the first segment, if the caller has them
         for _ in range(MAX_VOLUME_BOUNDS):
             if not len(alive):
                 break
@@ -444,8 +456,9 @@ class Integrator:
             hit = hits.prim >= 0
             seg = np.where(hit, hits.t, remaining[alive])
             if self.media.any_medium:
-                _, sig_t, _, _ = self.media.coefficients(counts[alive])
-                T[alive] *= md.transmittance(sig_t, seg + lead[alive] + np.where(hit, 0.0, margin))
+                if seg_sig_t is None:
+                    _, seg_sig_t, _, _ = self.media.coefficients(counts[alive])
+                T[alive] *= md.transmittance(seg_sig_t, seg + lead[alive] + np.where(hit, 0.0, margin))
                 if self.media.has_grids:
                     T[alive] *= self._grid_transmittance(origin[alive], wi[alive], seg, counts[alive], ctx)
             null = hit & self.tri_null[np.maximum(hits.prim, 0)]
@@ -461,6 +474,7 @@ class Integrator:
             remaining[a] = remaining[a] - seg[null] - eps
             lead[a] = eps
             alive = a[remaining[a] > 0]
+            seg_sig_t = None
         T[alive] = 0.0
         return T
 
