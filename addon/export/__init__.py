@@ -32,7 +32,9 @@ def export_scene(depsgraph, camera_object=None):
     camera = camera_export.export_camera(camera_object, reporter)
     film = camera_export.export_film(scene, reporter)
 
-    meshes, scene_lights = _export_instances(depsgraph, table, reporter)
+    meshes, scene_lights, has_volumes = _export_instances(depsgraph, table, reporter)
+    if has_volumes:
+        meshes += _export_volume_objects(depsgraph, table, reporter)
     world = shading.export_world(scene.world, table)
 
     vp_scene = vp.Scene(camera=camera, film=film, meshes=meshes, materials=table.materials,
@@ -46,6 +48,7 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
     meshes: list[vp.Mesh] = []
     scene_lights = []
     triangulated: dict = {}  # evaluated mesh data -> LocalMesh (None: no triangles)
+    has_volumes = False
     for instance in depsgraph.object_instances:
         obj = instance.object
         if not instance.show_self:
@@ -56,8 +59,11 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
             if light is not None:
                 scene_lights.append(light)
             continue
+        if obj.type == "VOLUME":
+            has_volumes = True  # exported by _export_volume_objects
+            continue
         if obj.type not in geometry.GEOMETRY_TYPES:
-            if obj.type in ("VOLUME", "CURVES", "POINTCLOUD", "GPENCIL", "GREASEPENCIL"):
+            if obj.type in ("CURVES", "POINTCLOUD", "GPENCIL", "GREASEPENCIL"):
                 reporter.warn(f"object '{obj.name}': {obj.type} objects are not supported; ignored")
             continue
         if abs(np.linalg.det(matrix[:3, :3])) < 1e-30:
@@ -76,7 +82,32 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
                                   or [table.index_of(None)], dtype=np.int32)
         name = obj.name if not instance.is_instance else f"{instance.parent.name}/{obj.name}#{len(meshes)}"
         meshes.append(geometry.to_world(name, local, matrix, slot_materials))
-    return meshes, scene_lights
+    return meshes, scene_lights, has_volumes
+
+
+def _export_volume_objects(depsgraph, table: shading.MaterialTable, reporter) -> list:
+    """Volume objects (OpenVDB grids) -> grid media, each inside its padded bounding box, an
+    invisible boundary mesh (as Cycles' volume bounds mesh). See addon/export_volume_grids.py."""
+    from .. import export_volume_grids as volume_grids  # reads grids with Blender's openvdb
+
+    messages: list[str] = []
+    meshes = []
+    try:
+        exported = volume_grids.export_volume_objects(depsgraph, messages)
+    except volume_grids.OpenVDBUnavailable as error:
+        reporter.warn(f"Volume objects are skipped: {error}")
+        return meshes
+    for volume in exported:
+        medium = volume_grids.grid_medium_from_volume(volume, messages)
+        if medium is None:
+            continue
+        table.media.append(medium)
+        table.materials.append(vp.Material(name=f"{volume.object_name} (volume bounds)", surface="null",
+                                           base_color=np.zeros(3), medium=len(table.media) - 1))
+        meshes.append(medium.boundary_mesh(len(table.materials) - 1))
+    for message in messages:
+        reporter.warn(message)
+    return meshes
 
 
 def export_settings(scene) -> vp.RenderSettings:

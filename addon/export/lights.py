@@ -38,6 +38,8 @@ def export_light(obj, matrix_world: np.ndarray, reporter):
     normalized = compat.light_is_normalized(light)
     position = matrix_world[:3, 3]
     direction = -matrix_world[:3, 2]  # a lamp shines down its local -Z
+    # Object > Visibility > Camera: hides the lamp itself from camera rays, lighting unchanged.
+    visible_camera = bool(getattr(obj, "visible_camera", True))
     if not getattr(light, "use_shadow", True):
         reporter.warn(f"light '{name}': 'Cast Shadow' off is not supported; it casts shadows")
 
@@ -45,7 +47,7 @@ def export_light(obj, matrix_world: np.ndarray, reporter):
         radius = max(float(light.shadow_soft_size), 0.0)
         power = strength if normalized else strength * _point_area(radius)
         common = dict(name=name, position=position, power=power, radius=radius,
-                      soft_falloff=compat.light_soft_falloff(light))
+                      soft_falloff=compat.light_soft_falloff(light), visible_camera=visible_camera)
         if light.type == "POINT":
             return vp.PointLight(**common)
         if getattr(light, "use_square", False):
@@ -71,12 +73,13 @@ def export_light(obj, matrix_world: np.ndarray, reporter):
                           "supported; rendered with 180 deg")
         power = strength if normalized else strength * area
         return vp.AreaLight(name=name, position=position, axis_u=axis_u, axis_v=axis_v,
-                            power=power, shape=shape)
+                            power=power, shape=shape, visible_camera=visible_camera)
 
     if light.type == "SUN":
         angle = float(light.angle)
         irradiance = strength if normalized else strength * _sun_area(angle)
-        return vp.SunLight(name=name, direction=direction, irradiance=irradiance, angle=angle)
+        return vp.SunLight(name=name, direction=direction, irradiance=irradiance, angle=angle,
+                           visible_camera=visible_camera)
 
     reporter.warn(f"light '{name}': type {light.type} is not supported; ignored")
     return None

@@ -152,3 +152,9 @@ def test_no_camera_is_a_clear_error(scene):
     scene.camera = None
     with pytest.raises(vp.SceneError, match="no active camera"):
         export(scene)
+
+
+def test_light_hidden_from_camera(scene):
+    obj = add_light(scene, "Hidden", "AREA", 10.0)
+    obj.visible_camera = False
+    assert _only_light(scene).visible_camera is False

@@ -1,0 +1,60 @@
+"""Volume objects (OpenVDB grids) through export_scene: a grid medium inside an invisible, closed
+bounds mesh. (The grid reading itself is tested in tests/addon_volume.)"""
+import numpy as np
+import pytest
+
+import bpy
+from addon_scenes import export, node_material, shader
+
+
+@pytest.fixture
+def vdb_file(tmp_path):
+    from addon import export_volume_grids
+
+    try:
+        openvdb = export_volume_grids.import_openvdb()
+    except export_volume_grids.OpenVDBUnavailable as error:
+        pytest.skip(str(error))
+    density = np.zeros((10, 10, 10), dtype=np.float32)
+    density[2:8, 2:8, 2:8] = 3.0
+    grid = openvdb.FloatGrid()
+    grid.name = "density"
+    grid.copyFromArray(density)
+    grid.transform = openvdb.createLinearTransform(voxelSize=0.2)
+    path = tmp_path / "smoke.vdb"
+    openvdb.write(str(path), grids=[grid])
+    return path
+
+
+def test_volume_object_becomes_bounded_grid_medium(scene, vdb_file):
+    volume = bpy.data.volumes.new("Smoke")
+    volume.filepath = str(vdb_file)
+    obj = bpy.data.objects.new("Smoke", volume)
+    obj.data.materials.append(node_material("SmokeMat", volume=shader("ShaderNodeVolumePrincipled", Density=2.0)))
+    scene.collection.objects.link(obj)
+    exported, warnings = export(scene)
+    grids = [m for m in exported.media if not m.is_homogeneous]
+    assert len(grids) == 1, warnings
+    bounds = [m for m in exported.meshes if exported.materials[m.material_ids[0]].medium >= 0]
+    assert len(bounds) == 1
+    material = exported.materials[bounds[0].material_ids[0]]
+    assert material.surface == "null" and exported.media[material.medium] is grids[0]
+    assert bounds[0].open_edge_count() == 0
+
+
+def test_volume_object_renders(scene, vdb_file, tmp_path):
+    from addon_scenes import add_light, read_exr
+
+    volume = bpy.data.volumes.new("Smoke")
+    volume.filepath = str(vdb_file)
+    obj = bpy.data.objects.new("Smoke", volume)
+    obj.location = (-1, -1, -1)
+    scene.collection.objects.link(obj)
+    add_light(scene, "Bulb", "POINT", 500.0, location=(0, 0, 3), shadow_soft_size=0.0)
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.filepath = str(tmp_path / "smoke.exr")
+    bpy.ops.render.render(write_still=True)
+    image = read_exr(tmp_path / "smoke.exr")
+    assert np.all(np.isfinite(image))
+    centre, corner = image[8:16, 8:16, :3].mean(), image[:4, :4, :3].mean()
+    assert centre > 10 * max(corner, 1e-6)  # lit smoke in the middle, black vacuum around
