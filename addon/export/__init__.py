@@ -54,6 +54,7 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
         if not instance.show_self:
             continue  # e.g. an instancer whose own geometry is hidden (Cycles' sync_objects does the same)
         matrix = np.array(instance.matrix_world, dtype=np.float64)
+        _warn_unsupported_visibility(obj, reporter)
         if obj.type == "LIGHT":
             light = lights.export_light(obj, matrix, reporter)
             if light is not None:
@@ -83,6 +84,19 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
         name = obj.name if not instance.is_instance else f"{instance.parent.name}/{obj.name}#{len(meshes)}"
         meshes.append(geometry.to_world(name, local, matrix, slot_materials))
     return meshes, scene_lights, has_volumes
+
+
+# Object > Visibility > Ray Visibility flags VolPath cannot honour (camera is honoured for lights).
+_RAY_VISIBILITY = (("visible_diffuse", "Diffuse"), ("visible_volume_scatter", "Volume Scatter"),
+                   ("visible_shadow", "Shadow"))
+
+
+def _warn_unsupported_visibility(obj, reporter):
+    flags = list(_RAY_VISIBILITY) + ([] if obj.type == "LIGHT" else [("visible_camera", "Camera")])
+    hidden = [label for prop, label in flags if not getattr(obj, prop, True)]
+    if hidden:
+        reporter.warn(f"object '{obj.name}': ray visibility off for {', '.join(hidden)} is not "
+                      "supported by VolPath; rendered as visible")
 
 
 def _export_volume_objects(depsgraph, table: shading.MaterialTable, reporter) -> list:

@@ -112,3 +112,10 @@ def test_a_million_triangles_export_in_seconds(scene):
     print(f"exported {n} smooth triangles in {seconds:.2f} s")
     assert n == 21 * 6 * 4 ** 6 * 2
     assert seconds < 10.0
+
+
+def test_unsupported_ray_visibility_warns(scene):
+    obj = add_mesh(scene, "Ghost")
+    obj.visible_shadow = False
+    _, warnings = export(scene)
+    assert any("'Ghost'" in w and "Shadow" in w for w in warnings), warnings
