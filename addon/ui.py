@@ -21,12 +21,16 @@ _SHARED_PANEL_PREFIXES = (
     "RENDER_PT_color_management", "RENDER_PT_format_presets", "RENDER_PT_stereoscopy",
     "RENDER_PT_views",
 )
+# EEVEE-only settings among those (prefixes): light probes, shadow maps, material render settings.
 _EEVEE_ONLY_SETTINGS = ("EEVEE_MATERIAL_PT_settings", "EEVEE_MATERIAL_PT_viewport_settings",
                         "EEVEE_MATERIAL_PT_thickness", "EEVEE_MATERIAL_PT_lightprobe",
-                        "EEVEE_WORLD_PT_settings", "EEVEE_WORLD_PT_lightprobe", "EEVEE_WORLD_PT_sun",
-                        "EEVEE_WORLD_PT_sun_shadow", "DATA_PT_EEVEE_light_distance",
-                        "DATA_PT_EEVEE_shadow", "DATA_PT_EEVEE_light_influence",
-                        "DATA_PT_EEVEE_shadow_cascaded_shadow_map", "DATA_PT_EEVEE_shadow_contact")
+                        "EEVEE_MATERIAL_PT_displacement", "EEVEE_WORLD_PT_settings",
+                        "EEVEE_WORLD_PT_lightprobe", "EEVEE_WORLD_PT_sun", "EEVEE_WORLD_PT_mist",
+                        "DATA_PT_EEVEE_light_distance", "DATA_PT_EEVEE_shadow",
+                        "DATA_PT_EEVEE_light_shadow", "DATA_PT_EEVEE_light_influence",
+                        "DATA_PT_lightprobe", "DATA_PT_context_lightprobe", "MATERIAL_PT_freestyle",
+                        "RENDER_PT_stereoscopy", "DATA_PT_camera_stereoscopy",
+                        "MATERIAL_PT_preview")  # bl_use_preview is off
 
 _added_to: list = []
 
@@ -47,7 +51,7 @@ def _shared_panels():
         name = panel.__name__
         if not isinstance(engines, set) or not engines & compat.BLENDER_ENGINE_IDS:
             continue
-        if name.startswith(_SHARED_PANEL_PREFIXES) and name not in _EEVEE_ONLY_SETTINGS:
+        if name.startswith(_SHARED_PANEL_PREFIXES) and not name.startswith(_EEVEE_ONLY_SETTINGS):
             yield panel
 
 

@@ -1,0 +1,50 @@
+"""Registration: engine, settings, panels, Blender's shared panels and their clean removal."""
+import bpy
+import pytest
+
+import addon
+from addon import ui
+
+SHARED = ("DATA_PT_lens", "DATA_PT_spot", "RENDER_PT_format", "EEVEE_MATERIAL_PT_surface",
+          "EEVEE_MATERIAL_PT_volume", "EEVEE_WORLD_PT_surface", "EEVEE_WORLD_PT_volume")
+
+
+def _panel(name):
+    return getattr(bpy.types, name)
+
+
+@pytest.mark.parametrize("name", SHARED)
+def test_blender_panels_accept_volpath(name):
+    assert "VOLPATH" in _panel(name).COMPAT_ENGINES
+
+
+def test_eevee_only_panels_stay_eevee_only():
+    for name in ("EEVEE_MATERIAL_PT_settings", "DATA_PT_EEVEE_light_shadow"):
+        panel = getattr(bpy.types, name, None)
+        if panel is not None:
+            assert "VOLPATH" not in panel.COMPAT_ENGINES
+
+
+def test_settings_defaults_match_cycles():
+    settings = bpy.context.scene.volpath
+    assert (settings.max_bounces, settings.diffuse_bounces, settings.glossy_bounces,
+            settings.transmission_bounces, settings.volume_bounces, settings.transparent_bounces) == (12, 4, 4, 12, 0, 8)
+
+
+def test_unregister_removes_everything_and_register_restores_it():
+    addon.unregister()
+    try:
+        assert not hasattr(bpy.types.Scene, "volpath")
+        assert all("VOLPATH" not in _panel(name).COMPAT_ENGINES for name in SHARED)
+        assert "VOLPATH" not in {getattr(e, "bl_idname", None) for e in bpy.types.RenderEngine.__subclasses__()
+                                 if e.is_registered}
+        assert not ui.operator_available("volpath.render")
+    finally:
+        addon.register()
+    assert ui.operator_available("volpath.render")
+    assert all("VOLPATH" in _panel(name).COMPAT_ENGINES for name in SHARED)
+
+
+def test_optional_operator_detection():
+    assert ui.operator_available("volpath.render")
+    assert not ui.operator_available("volpath.no_such_operator")
