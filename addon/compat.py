@@ -124,3 +124,14 @@ def set_pass_pixels(render_pass, pixels: np.ndarray):
         render_pass.rect.foreach_set(np.ascontiguousarray(pixels).reshape(-1))
     except TypeError:
         render_pass.rect = pixels
+
+
+def light_node_tree(light):
+    """The light's shader nodes as Cycles uses them: Blender 5 whenever a tree exists, earlier
+    versions only with use_nodes (research notes: blender/light.cpp sync in both versions)."""
+    tree = getattr(light, "node_tree", None)
+    if tree is None:
+        return None
+    if BLENDER_VERSION >= (5, 0, 0):
+        return tree
+    return tree if getattr(light, "use_nodes", False) else None

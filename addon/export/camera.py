@@ -55,6 +55,10 @@ def export_film(scene, reporter) -> vp.Film:
     height = render.resolution_y * render.resolution_percentage // 100
     if render.pixel_aspect_x != render.pixel_aspect_y:
         reporter.warn("non-square pixel aspect is not supported; rendered with square pixels")
+    if render.film_transparent:
+        reporter.warn("Film > Transparent is not supported; the background is rendered opaque")
+    if render.use_motion_blur:
+        reporter.warn("motion blur is not supported; rendered at the frame's shutter centre")
     crop = None
     if render.use_border:
         # Blender truncates the border to whole pixels (render/intern/pipeline.cc:

@@ -15,6 +15,7 @@ import numpy as np
 import volpath_native as vp
 
 from .. import compat
+from . import shading
 
 _AREA_SHAPES = {"SQUARE": "square", "RECTANGLE": "rectangle", "DISK": "disk", "ELLIPSE": "ellipse"}
 
@@ -30,11 +31,31 @@ def _sun_area(angle: float) -> float:
     return math.pi * math.sin(angle * 0.5) ** 2 if angle > 0.0 else 1.0
 
 
+def _node_factor(light, name: str, reporter) -> np.ndarray:
+    """The light's node tree multiplies its strength by its Emission closure (colour x strength);
+    no tree: 1. Same node reading (and warnings for what cannot be evaluated) as materials."""
+    tree = compat.light_node_tree(light)
+    if tree is None:
+        return np.ones(3)
+    output = tree.get_output_node("CYCLES")
+    if output is None:
+        reporter.warn(f"light '{name}': node tree without an active Light Output; the light is dark (as Cycles)")
+        return np.zeros(3)
+    reader = shading.NodeReader(f"light '{name}'", reporter)
+    before = len(reporter.messages)
+    surface = shading.surface_from(reader, output.inputs["Surface"])
+    if len(reporter.messages) > before or np.any(surface.albedo > 0):
+        reporter.warn(f"light '{name}': its node tree is not fully supported; rendered without it "
+                      "(colour x power only)")
+        return np.ones(3)
+    return surface.emission
+
+
 def export_light(obj, matrix_world: np.ndarray, reporter):
     """The VolPath light for a Blender light object at `matrix_world` (4x4), or None."""
     light = obj.data
     name = obj.name
-    strength = compat.light_color_factor(light) * float(light.energy)
+    strength = compat.light_color_factor(light) * float(light.energy) * _node_factor(light, name, reporter)
     normalized = compat.light_is_normalized(light)
     position = matrix_world[:3, 3]
     direction = -matrix_world[:3, 2]  # a lamp shines down its local -Z

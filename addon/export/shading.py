@@ -62,7 +62,7 @@ def _source_socket(socket):
     return None
 
 
-class _NodeReader:
+class NodeReader:
     """Reads constant inputs of one material's nodes, warning about what it cannot evaluate."""
 
     def __init__(self, owner: str, reporter: Reporter):
@@ -101,7 +101,7 @@ def _as_value(default_value):
         return float(default_value)
 
 
-def _mix_factor(reader: _NodeReader, node) -> float:
+def _mix_factor(reader: NodeReader, node) -> float:
     return float(np.clip(reader.scalar(node, node.inputs[0]), 0.0, 1.0))
 
 
@@ -120,7 +120,7 @@ class _Surface:
         return _Surface(self.albedo + other.albedo, self.emission + other.emission)
 
 
-def _surface_from(reader: _NodeReader, socket) -> _Surface:
+def surface_from(reader: NodeReader, socket) -> _Surface:
     """The surface closure feeding `socket` (a shader socket); black if nothing is connected."""
     source = _source_socket(socket)
     if source is None:
@@ -140,16 +140,16 @@ def _surface_from(reader: _NodeReader, socket) -> _Surface:
         # Emission closure radiance = colour x strength, both faces (kernel/closure/emissive.h).
         return _Surface(emission=reader.rgb(node, "Color") * reader.scalar(node, "Strength"))
     if kind == "ADD_SHADER":
-        return _surface_from(reader, node.inputs[0]) + _surface_from(reader, node.inputs[1])
+        return surface_from(reader, node.inputs[0]) + surface_from(reader, node.inputs[1])
     if kind == "MIX_SHADER":
         f = _mix_factor(reader, node)
-        return (_surface_from(reader, node.inputs[1]).scaled(1.0 - f)
-                + _surface_from(reader, node.inputs[2]).scaled(f))
+        return (surface_from(reader, node.inputs[1]).scaled(1.0 - f)
+                + surface_from(reader, node.inputs[2]).scaled(f))
     reader.warn(node, f"unsupported surface shader; rendered as a {DEFAULT_ALBEDO} grey diffuse surface")
     return _Surface(albedo=np.full(3, DEFAULT_ALBEDO))
 
 
-def _principled(reader: _NodeReader, node) -> _Surface:
+def _principled(reader: NodeReader, node) -> _Surface:
     """Principled BSDF as its diffuse layer: Base Color (clamped to [0, 1] as Cycles does,
     svm/closure.h) x (1 - Metallic) x (1 - Transmission), plus Emission Color x Strength
     (svm/closure.h principled_bsdf_emission). Specular, metal, glass, coat, sheen and subsurface
@@ -202,7 +202,7 @@ def _scatter_term(sigma_s: np.ndarray, g: float) -> list:
     return [(float(np.mean(sigma_s)), float(np.clip(g, -HG_G_LIMIT, HG_G_LIMIT)))]
 
 
-def _volume_from(reader: _NodeReader, socket) -> _Volume:
+def _volume_from(reader: NodeReader, socket) -> _Volume:
     source = _source_socket(socket)
     if source is None:
         return _Volume()
@@ -261,7 +261,7 @@ def _volume_from(reader: _NodeReader, socket) -> _Volume:
     return _Volume()
 
 
-def _medium_from(name: str, volume: _Volume, reader: _NodeReader, node) -> vp.Medium:
+def _medium_from(name: str, volume: _Volume, reader: NodeReader, node) -> vp.Medium:
     weights = np.array([w for w, _ in volume.g_terms], dtype=np.float64)
     gs = np.array([g for _, g in volume.g_terms], dtype=np.float64)
     g = float(np.sum(weights * gs) / np.sum(weights)) if weights.size and np.sum(weights) > 0 else 0.0
@@ -299,7 +299,7 @@ class MaterialTable:
         tree = compat.material_node_tree(material)
         if tree is None:  # not node-based (Blender < 5): Cycles uses the viewport diffuse colour
             return vp.Material(name=name, base_color=np.array(material.diffuse_color[:3]))
-        reader = _NodeReader(f"material '{name}'", self.reporter)
+        reader = NodeReader(f"material '{name}'", self.reporter)
         output = tree.get_output_node("CYCLES")
         if output is None:
             self.reporter.warn(f"material '{name}': no active Material Output node; rendered black (as Cycles)")
@@ -317,7 +317,7 @@ class MaterialTable:
             # kernel/integrator/surface_shader.h makes such surfaces fully transparent).
             return vp.Material(name=name, surface="null", base_color=np.zeros(3), medium=medium)
         # Nothing connected to Surface (and no volume) is an opaque black surface in Cycles.
-        surface = _surface_from(reader, surface_socket)
+        surface = surface_from(reader, surface_socket)
         return vp.Material(name=name, surface="diffuse", base_color=surface.albedo,
                            emission=surface.emission, medium=medium)
 
@@ -330,7 +330,7 @@ def export_world(world, table: MaterialTable) -> vp.World:
     if tree is None:
         return vp.World(background=np.array(world.color[:3]))
     reporter = table.reporter
-    reader = _NodeReader(f"world '{world.name_full}'", reporter)
+    reader = NodeReader(f"world '{world.name_full}'", reporter)
     output = tree.get_output_node("CYCLES")
     if output is None:
         reporter.warn(f"world '{world.name_full}': no active World Output node; black background")

@@ -158,3 +158,24 @@ def test_light_hidden_from_camera(scene):
     obj = add_light(scene, "Hidden", "AREA", 10.0)
     obj.visible_camera = False
     assert _only_light(scene).visible_camera is False
+
+
+def test_light_node_tree_scales_strength(scene):
+    obj = add_light(scene, "Lamp", "POINT", 10.0)
+    obj.data.use_nodes = True
+    emission = next(n for n in obj.data.node_tree.nodes if n.type == "EMISSION")
+    emission.inputs["Color"].default_value = (1.0, 0.5, 0.0, 1.0)
+    emission.inputs["Strength"].default_value = 3.0
+    np.testing.assert_allclose(_only_light(scene).power, [30.0, 15.0, 0.0], rtol=1e-6)
+
+
+def test_unsupported_light_nodes_fall_back_to_plain_light(scene):
+    obj = add_light(scene, "Lamp", "POINT", 10.0)
+    obj.data.use_nodes = True
+    tree = obj.data.node_tree
+    emission = next(n for n in tree.nodes if n.type == "EMISSION")
+    texture = tree.nodes.new("ShaderNodeTexNoise")
+    tree.links.new(texture.outputs["Color"], emission.inputs["Color"])
+    light = _only_light(scene)
+    np.testing.assert_allclose(light.power, 10.0, rtol=1e-6)
+    assert any("'Lamp'" in w and "not fully supported" in w for w in export(scene)[1])
