@@ -135,3 +135,13 @@ def light_node_tree(light):
     if BLENDER_VERSION >= (5, 0, 0):
         return tree
     return tree if getattr(light, "use_nodes", False) else None
+
+
+def spot_is_square(light) -> bool:
+    """SpotLight.use_square (a square cone) only exists in newer Blender versions."""
+    return bool(getattr(light, "use_square", False))
+
+
+def volume_scatter_phase(node) -> str:
+    """Volume Scatter / Coefficients phase function; Henyey-Greenstein only before Blender 4.5."""
+    return str(getattr(node, "phase", "HENYEY_GREENSTEIN"))

@@ -93,7 +93,7 @@ _RAY_VISIBILITY = (("visible_diffuse", "Diffuse"), ("visible_volume_scatter", "V
 
 def _warn_unsupported_visibility(obj, reporter):
     flags = list(_RAY_VISIBILITY) + ([] if obj.type == "LIGHT" else [("visible_camera", "Camera")])
-    hidden = [label for prop, label in flags if not getattr(obj, prop, True)]
+    hidden = [label for prop, label in flags if not getattr(obj, prop)]
     if hidden:
         reporter.warn(f"object '{obj.name}': ray visibility off for {', '.join(hidden)} is not "
                       "supported by VolPath; rendered as visible")

@@ -60,8 +60,8 @@ def export_light(obj, matrix_world: np.ndarray, reporter):
     position = matrix_world[:3, 3]
     direction = -matrix_world[:3, 2]  # a lamp shines down its local -Z
     # Object > Visibility > Camera: hides the lamp itself from camera rays, lighting unchanged.
-    visible_camera = bool(getattr(obj, "visible_camera", True))
-    if not getattr(light, "use_shadow", True):
+    visible_camera = bool(obj.visible_camera)
+    if not light.use_shadow:
         reporter.warn(f"light '{name}': 'Cast Shadow' off is not supported; it casts shadows")
 
     if light.type in ("POINT", "SPOT"):
@@ -71,7 +71,7 @@ def export_light(obj, matrix_world: np.ndarray, reporter):
                       soft_falloff=compat.light_soft_falloff(light), visible_camera=visible_camera)
         if light.type == "POINT":
             return vp.PointLight(**common)
-        if getattr(light, "use_square", False):
+        if compat.spot_is_square(light):
             reporter.warn(f"light '{name}': square spot cones are not supported; rendered round")
         # blender/light.cpp: spot_angle = spot_size (full cone), spot_smooth = spot_blend.
         return vp.SpotLight(**common, direction=direction, spot_size=float(light.spot_size),
@@ -89,7 +89,7 @@ def export_light(obj, matrix_world: np.ndarray, reporter):
         area = float(np.linalg.norm(axis_u) * np.linalg.norm(axis_v))
         if shape in ("disk", "ellipse"):
             area *= math.pi / 4.0
-        if float(getattr(light, "spread", math.pi)) < math.pi - 1e-6:
+        if float(light.spread) < math.pi - 1e-6:
             reporter.warn(f"light '{name}': spread {math.degrees(light.spread):.1f} deg is not "
                           "supported; rendered with 180 deg")
         power = strength if normalized else strength * area

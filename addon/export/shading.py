@@ -231,7 +231,7 @@ def _volume_from(reader: NodeReader, socket) -> _Volume:
         return _Volume(sigma_s, sigma_a, emission, _scatter_term(sigma_s, reader.scalar(node, "Anisotropy")))
     if kind == "VOLUME_SCATTER":
         # svm_node_closure_volume: weight = Color x max(Density, 0); scattering only.
-        phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
+        phase = compat.volume_scatter_phase(node)
         if phase != "HENYEY_GREENSTEIN":
             reader.warn(node, f"phase function {phase} is not supported; rendered as Henyey-Greenstein")
         sigma_s = reader.rgb(node, "Color") * max(reader.scalar(node, "Density"), 0.0)
@@ -242,7 +242,7 @@ def _volume_from(reader: NodeReader, socket) -> _Volume:
         return _Volume(sigma_a=sigma_a)
     if kind == "VOLUME_COEFFICIENTS":
         # svm_node_volume_coefficients: sigma_t = scatter + absorption, emission as given.
-        phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
+        phase = compat.volume_scatter_phase(node)
         if phase != "HENYEY_GREENSTEIN":
             reader.warn(node, f"phase function {phase} is not supported; rendered as Henyey-Greenstein")
         sigma_s = reader.rgb(node, "Scatter Coefficients")
