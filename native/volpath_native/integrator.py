@@ -348,36 +348,36 @@ class Integrator:
             w = np.where(S.prev_pdf[e] > 0, _power_heuristic(S.prev_pdf[e], lpdf), 1.0)
             L[S.pid[e]] += S.beta[e] * radiance * w[:, None]
 
-        # terminate-after-transparent paths end here
-        done = S.tat[b]
-        keep = ~done
-        n_face = ngb * np.where(frontb, 1.0, -1.0)[:, None]
-        origin = pb + n_face * eps
-        albedo = self.mat_albedo[self.accel.material_ids[primb]]
-        ns = accel.shading_normals(primb, hits.u[b], hits.v[b]) if accel.has_smooth else ngb
-        ns = ns * np.where(_dot(ns, n_face) < 0, -1.0, 1.0)[:, None]
-        diffuse = keep & any_positive(albedo)
-        i = np.nonzero(diffuse)[0]
+        # terminate-after-transparent paths end here; black surfaces absorb everything
+        albedo_b = self.mat_albedo[self.accel.material_ids[primb]]
+        i = np.nonzero(~S.tat[b] & any_positive(albedo_b))[0]
+        bi = b[i]
+        albedo = albedo_b[i]
+        n_face = ngb[i] * np.where(frontb[i], 1.0, -1.0)[:, None]
+        origin = pb[i] + n_face * eps
+        ns = accel.shading_normals(primb[i], hits.u[bi], hits.v[bi]) if accel.has_smooth else ngb[i]
+        if accel.has_smooth:
+            ns = ns * np.where(_dot(ns, n_face) < 0, -1.0, 1.0)[:, None]
+        else:
+            ns = n_face
         if len(i) and self.lights.count:
-            bi = b[i]
             rows = self.lights.select(self._u(S, D_SURF_SELECT, bi))
-            ls = self.lights.sample(rows, origin[i], self._u(S, D_SURF_LU, bi), self._u(S, D_SURF_LV, bi))
-            f, bsdf_pdf = lambert_eval(albedo[i], ns[i], ls.wi)
-            above = _dot(ls.wi, n_face[i]) > 0
+            ls = self.lights.sample(rows, origin, self._u(S, D_SURF_LU, bi), self._u(S, D_SURF_LV, bi))
+            f, bsdf_pdf = lambert_eval(albedo, ns, ls.wi)
+            above = _dot(ls.wi, n_face) > 0
             w = np.where(ls.pdf > 0, _power_heuristic(ls.pdf, bsdf_pdf), 1.0)
             contrib = S.beta[bi] * f * ls.value * (w * above)[:, None]
             nz = np.nonzero(any_positive(contrib))[0]
             if len(nz):
-                tr = self._shadow(origin[i][nz], ls.wi[nz], ls.dist[nz], S.counts[bi[nz]], ctx,
+                tr = self._shadow(origin[nz], ls.wi[nz], ls.dist[nz], S.counts[bi[nz]], ctx,
                                   S.m_st[bi[nz]] if S.m_st is not None else None)
                 L[S.pid[bi[nz]]] += contrib[nz] * tr
         # continue with a cosine-sampled direction
-        wi, weight, pdf = lambert_sample(albedo[i], ns[i], self._u(S, D_BSDF_U, b[i]), self._u(S, D_BSDF_V, b[i]))
-        bi = b[i]
-        ok = _dot(wi, n_face[i]) > 0  # smooth normals may point below the geometric surface
-        S.o[bi], S.d[bi] = origin[i], wi
+        wi, weight, pdf = lambert_sample(albedo, ns, self._u(S, D_BSDF_U, bi), self._u(S, D_BSDF_V, bi))
+        ok = _dot(wi, n_face) > 0  # smooth normals may point below the geometric surface
+        S.o[bi], S.d[bi] = origin, wi
         S.beta[bi] = S.beta[bi] * weight * ok[:, None]
-        S.prev_pos[bi], S.prev_pdf[bi] = origin[i], pdf
+        S.prev_pos[bi], S.prev_pdf[bi] = origin, pdf
         S.travelled[bi] = 0.0
         S.tmax[bi] = np.inf
         S.bounce[bi] += 1
