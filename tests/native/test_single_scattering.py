@@ -161,3 +161,17 @@ def test_single_scattering_from_sphere_and_soft_falloff_lights(sphere):
     assert np.abs(z).max() < Z_LIMIT, (np.abs(z).max(), result.image[..., 1].mean(), expected[..., 1].mean())
     z_wrong = z_scores(result.image[..., :3], result.variance, 1.1 * expected)
     assert np.all((z_wrong ** 2).sum(axis=(0, 1)) > chi2_critical(SIZE * SIZE))
+
+
+def test_volume_bounce_limit_has_cycles_meaning():
+    """volume_bounces = 0 is exactly single scattering (checked against quadrature above); each
+    extra bounce adds multiple scattering, so the image grows, and the growth shrinks."""
+    imgs = [render(_scene(0.0, samples=128, seed=7 + b)) for b in (0,)]
+    for b in (1, 4):
+        scene = _scene(0.0, samples=128, seed=7 + b)
+        scene.settings.volume_bounces = b
+        imgs.append(render(scene))
+    means = [r.image[..., :3].mean(axis=(0, 1)) for r in imgs]
+    errs = [np.sqrt(r.variance.sum(axis=(0, 1))) / SIZE ** 2 for r in imgs]
+    assert np.all(means[1] - means[0] > Z_LIMIT * np.hypot(errs[1], errs[0])), (means, errs)
+    assert np.all(means[2] - means[1] > -Z_LIMIT * np.hypot(errs[2], errs[1]))
