@@ -55,6 +55,8 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
             continue  # e.g. an instancer whose own geometry is hidden (Cycles' sync_objects does the same)
         matrix = np.array(instance.matrix_world, dtype=np.float64)
         _warn_unsupported_visibility(obj, reporter)
+        if instance.show_particles and any(system.settings.type == "HAIR" for system in obj.particle_systems):
+            reporter.warn(f"object '{obj.name}': hair particles are not supported; not rendered")
         if obj.type == "LIGHT":
             light = lights.export_light(obj, matrix, reporter)
             if light is not None:

@@ -4,7 +4,8 @@ The node trees are read, not executed: the closures VolPath supports combine lin
 Mix Shader with a constant factor), so a tree reduces to sums of weighted terms.
 
 Supported, with Cycles' meaning (intern/cycles/kernel/svm/closure.h):
-- Surface: Diffuse BSDF, Principled BSDF (see _principled), Emission, Add / Mix Shader.
+- Surface: Diffuse BSDF, Principled BSDF (see _principled), Emission, Add / Mix Shader; a
+  Transparent BSDF feeding the output directly is an invisible (null) surface.
 - Volume: Principled Volume, Volume Scatter (Henyey-Greenstein), Volume Absorption, Volume
   Coefficients (5.0), Emission, Add / Mix Shader.
 - World: Background colour x strength, and the Volume output.
@@ -315,6 +316,14 @@ class MaterialTable:
         if has_volume and not has_surface:
             # Volume only: an invisible boundary (scene/shader.cpp sets SD_HAS_ONLY_VOLUME, and
             # kernel/integrator/surface_shader.h makes such surfaces fully transparent).
+            return vp.Material(name=name, surface="null", base_color=np.zeros(3), medium=medium)
+        source = _source_socket(surface_socket)
+        if source is not None and source.node.type == "BSDF_TRANSPARENT" and not source.node.mute:
+            # A white Transparent BSDF lets every ray through unchanged: VolPath's null surface.
+            color = reader.rgb(source.node, "Color")
+            if not np.allclose(color, 1.0):
+                reader.warn(source.node, f"tinted transparency {np.round(color, 3).tolist()} is not "
+                                         "supported; rendered fully transparent")
             return vp.Material(name=name, surface="null", base_color=np.zeros(3), medium=medium)
         # Nothing connected to Surface (and no volume) is an opaque black surface in Cycles.
         surface = surface_from(reader, surface_socket)

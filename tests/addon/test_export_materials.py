@@ -180,3 +180,12 @@ def test_open_mesh_bounding_a_medium_is_an_error(scene):
     add_mesh(scene, "OpenBox", vertices=CUBE_VERTICES, faces=CUBE_FACES[:-1], material=fog)
     with pytest.raises(vp.SceneError, match="OpenBox"):
         export(scene)
+
+
+def test_transparent_surface_around_a_volume_is_a_null_boundary(scene):
+    transparent = shader("ShaderNodeBsdfTransparent", Color=(1.0, 1.0, 1.0, 1.0))
+    volume = shader("ShaderNodeVolumeAbsorption", Color=(0.5, 0.5, 0.5, 1.0), Density=1.0)
+    scene_, material, warnings = _material(scene, node_material("Glassless", surface=transparent, volume=volume))
+    assert material.surface == "null" and material.medium == 0
+    np.testing.assert_allclose(scene_.media[0].sigma_a, 0.5, rtol=1e-6)
+    assert warnings == []
