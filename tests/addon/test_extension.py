@@ -155,3 +155,41 @@ def test_installed_in_blender_renders_headless(tmp_path):
     standard_error = max(diff.std(ddof=1) / np.sqrt(diff.size), 1e-6 * reference[..., :3].mean())
     assert abs(diff.mean()) < 4.0 * standard_error, (diff.mean(), standard_error)
     assert abs(image[..., :3].mean() / reference[..., :3].mean() - 1.0) < 0.05
+
+
+_EXTENSION_SCRIPT = textwrap.dedent('''
+    import math, sys, bpy
+    zip_path, out_path = sys.argv[1], sys.argv[2]
+    result = bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default",
+                                                      enable_on_install=True)
+    assert result == {"FINISHED"}, result
+    assert "bl_ext.user_default.volpath" in bpy.context.preferences.addons
+    import volpath_native
+    assert "/extensions/" in volpath_native.__file__, volpath_native.__file__  # from the wheel
+    sc = bpy.context.scene
+    sc.render.engine = "VOLPATH"
+    sc.render.resolution_x = sc.render.resolution_y = 16
+    sc.volpath.samples = 2
+    sc.render.image_settings.file_format = "OPEN_EXR"
+    sc.render.filepath = out_path
+    bpy.ops.render.render(write_still=True)
+''')
+
+
+def test_extension_installs_and_renders_in_blender_5(extension_zip, tmp_path):
+    """The zip installed the way Blender 4.2+ does (Extensions > Install from Disk) into a
+    temporary user config of the bpy module: wheels land in Blender's extension site-packages,
+    the add-on enables as bl_ext.user_default.volpath, and F12 renders the default scene."""
+    home = tmp_path / "home"
+    env = dict(os.environ, HOME=str(home), BLENDER_USER_CONFIG=str(home / "config"),
+               BLENDER_USER_SCRIPTS=str(home / "scripts"), BLENDER_USER_EXTENSIONS=str(home / "extensions"))
+    # Only the venv's site-packages (bpy, numpy, embreex) without the editable volpath_native.
+    env["PYTHONNOUSERSITE"] = "1"
+    script = tmp_path / "install.py"
+    script.write_text(_EXTENSION_SCRIPT)
+    out = tmp_path / "default.exr"
+    proc = subprocess.run([sys.executable, "-I", str(script), str(extension_zip), str(out)], env=env,
+                          capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    image = read_exr(out)
+    assert image.shape == (16, 16, 4) and np.all(np.isfinite(image)) and image[..., :3].mean() > 0
