@@ -71,6 +71,10 @@ def export_light(obj, matrix_world: np.ndarray, reporter):
                       soft_falloff=compat.light_soft_falloff(light), visible_camera=visible_camera)
         if light.type == "POINT":
             return vp.PointLight(**common)
+        scale_x, scale_y = np.linalg.norm(matrix_world[:3, 0]), np.linalg.norm(matrix_world[:3, 1])
+        if abs(scale_x - scale_y) > 1e-4 * max(scale_x, scale_y):
+            reporter.warn(f"light '{name}': non-uniform object scale makes Cycles' spot cone elliptical; "
+                          "VolPath renders it round")
         if compat.spot_is_square(light):
             reporter.warn(f"light '{name}': square spot cones are not supported; rendered round")
         # blender/light.cpp: spot_angle = spot_size (full cone), spot_smooth = spot_blend.
