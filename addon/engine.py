@@ -35,6 +35,7 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         started = time.perf_counter()
         try:
             scene, warnings = export_scene(depsgraph, camera_object=self.camera_override)
+            _, _, width, height = _crop_window(scene.film)
         except vp.SceneError as error:
             self._fail(str(error))
             return
@@ -46,7 +47,6 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             self.report({"WARNING"}, message)
         export_seconds = time.perf_counter() - started
 
-        _, _, width, height = _crop_window(scene.film)
         layer_name = depsgraph.view_layer.name
         # The Render Result covers the border region only (Blender crops it itself); its rows run
         # bottom-up.
