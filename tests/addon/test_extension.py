@@ -3,6 +3,7 @@ executable (Debian's 3.4 in CI, or $BLENDER) installs VolPath and renders a fram
 
 The executable test works in a temporary user config (HOME, BLENDER_USER_CONFIG,
 BLENDER_USER_SCRIPTS), never in the real user's preferences."""
+import importlib.util
 import os
 import shutil
 import subprocess
@@ -18,8 +19,17 @@ import pytest
 from addon_scenes import read_exr
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "addon"))
-import build_extension  # noqa: E402  (bpy-free packaging script)
+
+
+def _load_build_script():
+    """addon/build_extension.py is a bpy-free script, loaded by path (not as addon.*)."""
+    spec = importlib.util.spec_from_file_location("volpath_build_extension", ROOT / "addon" / "build_extension.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+build_extension = _load_build_script()
 
 
 @pytest.fixture(scope="module")
