@@ -83,7 +83,11 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
             continue
         slot_materials = np.array([table.index_of(slot.material) for slot in obj.material_slots]
                                   or [table.index_of(None)], dtype=np.int32)
-        name = obj.name if not instance.is_instance else f"{instance.parent.name}/{obj.name}#{len(meshes)}"
+        if instance.is_instance:
+            parent = instance.parent.name if instance.parent is not None else "instance"
+            name = f"{parent}/{obj.name}#{len(meshes)}"
+        else:
+            name = obj.name
         meshes.append(geometry.to_world(name, local, matrix, slot_materials))
     return meshes, scene_lights, has_volumes
 
