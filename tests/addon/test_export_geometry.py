@@ -119,3 +119,27 @@ def test_unsupported_ray_visibility_warns(scene):
     obj.visible_shadow = False
     _, warnings = export(scene)
     assert any("'Ghost'" in w and "Shadow" in w for w in warnings), warnings
+
+
+@pytest.mark.skipif(bpy.app.version < (4, 0, 0), reason="node group interface API is Blender 4.0+")
+def test_geometry_nodes_instances(scene):
+    group = bpy.data.node_groups.new("Scatter", "GeometryNodeTree")
+    group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = group.nodes, group.links
+    line = nodes.new("GeometryNodeMeshLine")
+    line.inputs["Count"].default_value = 3
+    line.inputs["Offset"].default_value = (2.0, 0.0, 0.0)
+    cube = nodes.new("GeometryNodeMeshCube")
+    cube.inputs["Size"].default_value = (0.5, 0.5, 0.5)
+    on_points = nodes.new("GeometryNodeInstanceOnPoints")
+    output = nodes.new("NodeGroupOutput")
+    links.new(line.outputs["Mesh"], on_points.inputs["Points"])
+    links.new(cube.outputs["Mesh"], on_points.inputs["Instance"])
+    links.new(on_points.outputs["Instances"], output.inputs["Geometry"])
+    holder = add_mesh(scene, "Holder", vertices=[(0, 0, 0)], faces=[])
+    holder.modifiers.new("Scatter", "NODES").node_group = group
+    meshes = export(scene)[0].meshes
+    assert len(meshes) == 3 and all(len(m.triangles) == 12 for m in meshes)
+    centres = sorted(round(float(m.vertices.mean(axis=0)[0]), 5) for m in meshes)
+    assert centres == [0.0, 2.0, 4.0]
+    assert all(np.ptp(m.vertices, axis=0) == pytest.approx(0.5) for m in meshes)
