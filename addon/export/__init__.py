@@ -103,6 +103,9 @@ def _warn_unsupported_visibility(obj, reporter):
     if hidden:
         reporter.warn(f"object '{obj.name}': ray visibility off for {', '.join(hidden)} is not "
                       "supported by VolPath; rendered as visible")
+    for prop, label in (("is_holdout", "holdout"), ("is_shadow_catcher", "shadow catcher")):
+        if getattr(obj, prop):
+            reporter.warn(f"object '{obj.name}': {label} is not supported; rendered as a normal object")
 
 
 def _export_volume_objects(depsgraph, table: shading.MaterialTable, reporter) -> list:
