@@ -103,6 +103,8 @@ def _warn_unsupported_visibility(obj, reporter):
     if hidden:
         reporter.warn(f"object '{obj.name}': ray visibility off for {', '.join(hidden)} is not "
                       "supported by VolPath; rendered as visible")
+    if obj.type == "LIGHT":
+        return  # Blender flags lights as shadow catchers by default; it means nothing for them
     for prop, label in (("is_holdout", "holdout"), ("is_shadow_catcher", "shadow catcher")):
         if getattr(obj, prop):
             reporter.warn(f"object '{obj.name}': {label} is not supported; rendered as a normal object")

@@ -12,7 +12,8 @@ Supported, with Cycles' meaning (intern/cycles/kernel/svm/closure.h):
 Documented fallbacks (each one reported as a warning naming the material and the node):
 - a linked input (texture, attribute...) uses the socket's own unlinked value; RGB and Value nodes
   feeding an input are read as the constants they are;
-- an unsupported surface node renders as Cycles' default surface, a 0.8 grey diffuse;
+- an unsupported surface node renders as a 0.8 grey diffuse (the diffuse layer of Cycles'
+  default surface);
 - an unsupported volume node contributes no medium.
 """
 from __future__ import annotations
@@ -25,8 +26,8 @@ import volpath_native as vp
 
 from .. import compat
 
-# Cycles' surface for objects without a material (scene/shader.cpp: the default surface shader is
-# a Diffuse BSDF with colour 0.8).
+# Cycles' surface for objects without a material is a default Principled BSDF (scene/shader.cpp
+# ShaderManager::add_default), base colour 0.8: VolPath renders its diffuse layer.
 DEFAULT_ALBEDO = 0.8
 # Cycles clamps Henyey-Greenstein's g to +-(1 - 1e-3) (kernel/closure/volume_henyey_greenstein.h).
 HG_G_LIMIT = 1.0 - 1e-3
@@ -295,6 +296,8 @@ class MaterialTable:
 
     def _convert(self, material) -> vp.Material:
         if material is None:
+            self.reporter.warn("objects without a material: Cycles' default Principled BSDF is rendered "
+                               f"as its diffuse layer ({DEFAULT_ALBEDO} grey; specular ignored)")
             return vp.Material(name="(no material)", base_color=np.full(3, DEFAULT_ALBEDO))
         name = material.name_full
         tree = compat.material_node_tree(material)

@@ -179,3 +179,10 @@ def test_unsupported_light_nodes_fall_back_to_plain_light(scene):
     light = _only_light(scene)
     np.testing.assert_allclose(light.power, 10.0, rtol=1e-6)
     assert any("'Lamp'" in w and "not fully supported" in w for w in export(scene)[1])
+
+
+def test_plain_lights_export_without_warnings(scene):
+    for kind in ("POINT", "SPOT", "AREA", "SUN"):
+        obj = add_light(scene, kind.title(), kind, 10.0)
+        obj.visible_camera = True
+    assert export(scene)[1] == []
