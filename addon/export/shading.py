@@ -342,6 +342,13 @@ def export_world(world, table: MaterialTable) -> vp.World:
     if tree is None:
         return vp.World(background=np.array(world.color[:3]))
     reporter = table.reporter
+    # World > Ray Visibility (Cycles' world.cycles_visibility), when the Cycles add-on is present.
+    visibility = getattr(world, "cycles_visibility", None)
+    if visibility is not None:
+        hidden = [flag for flag in ("camera", "diffuse", "scatter") if not getattr(visibility, flag)]
+        if hidden:
+            reporter.warn(f"world '{world.name_full}': ray visibility off for {', '.join(hidden)} is not "
+                          "supported; the background is visible to all rays")
     reader = NodeReader(f"world '{world.name_full}'", reporter)
     output = tree.get_output_node("CYCLES")
     if output is None:

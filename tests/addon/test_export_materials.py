@@ -189,3 +189,9 @@ def test_transparent_surface_around_a_volume_is_a_null_boundary(scene):
     assert material.surface == "null" and material.medium == 0
     np.testing.assert_allclose(scene_.media[0].sigma_a, 0.5, rtol=1e-6)
     assert warnings == []
+
+
+def test_world_hidden_from_camera_warns(scene):
+    world = _world(scene)
+    world.cycles_visibility.camera = False
+    assert any("world 'Sky'" in w and "camera" in w for w in export(scene)[1])
