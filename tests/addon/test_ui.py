@@ -48,3 +48,16 @@ def test_unregister_removes_everything_and_register_restores_it():
 def test_optional_operator_detection():
     assert ui.operator_available("volpath.render")
     assert not ui.operator_available("volpath.no_such_operator")
+
+
+def test_render_button_renders_with_volpath(scene, monkeypatch):
+    import importlib
+
+    native_render = importlib.import_module("volpath_native.render")
+    calls = []
+    real = native_render.render
+    monkeypatch.setattr(native_render, "render", lambda s, **kw: calls.append(s) or real(s, **kw))
+    scene.render.engine = "CYCLES"
+    assert bpy.ops.volpath.render() == {"FINISHED"}
+    assert scene.render.engine == "VOLPATH"  # the button switches to VolPath first
+    assert len(calls) == 1 and calls[0].settings.samples == scene.volpath.samples
