@@ -18,7 +18,7 @@ bl_info = {  # read by Blender < 4.2; 4.2+ reads blender_manifest.toml
 
 import bpy  # noqa: E402  (bl_info must come first for Blender's legacy add-on scanner)
 
-from . import compat, engine, properties, ui  # noqa: E402
+from . import compat, engine, io_vpscene, properties, ui  # noqa: E402
 
 _registered = False
 _compare = None  # the optional comparison package (addon/compare), when present
@@ -45,6 +45,7 @@ def register():
     properties.register()
     engine.register()
     ui.register()
+    io_vpscene.register()
     _compare = _load_compare()
     if _compare is not None:
         try:
@@ -65,6 +66,7 @@ def unregister():
         except Exception as error:
             print(f"VolPath: comparison tools failed to unregister: {type(error).__name__}: {error}")
         _compare = None
+    io_vpscene.unregister()
     ui.unregister()
     engine.unregister()
     properties.unregister()

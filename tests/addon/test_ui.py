@@ -61,3 +61,25 @@ def test_render_button_renders_with_volpath(scene, monkeypatch):
     assert bpy.ops.volpath.render() == {"FINISHED"}
     assert scene.render.engine == "VOLPATH"  # the button switches to VolPath first
     assert len(calls) == 1 and calls[0].settings.samples == scene.volpath.samples
+
+
+def test_export_vpscene_round_trip(scene, tmp_path):
+    import numpy as np
+    import volpath_native as vp
+    from addon_scenes import add_light, add_mesh, export, node_material, shader
+
+    fog = node_material("Fog", volume=shader("ShaderNodeVolumePrincipled", Density=0.7))
+    add_mesh(scene, "Fog", material=fog)
+    add_light(scene, "Bulb", "POINT", 100.0, location=(0, 0, 3))
+    path = tmp_path / "scene.vpscene"
+    assert bpy.ops.volpath.export_scene(filepath=str(path)) == {"FINISHED"}
+    loaded, expected = vp.load_scene(path), export(scene)[0]
+    np.testing.assert_allclose(loaded.media[0].sigma_s, expected.media[0].sigma_s)
+    np.testing.assert_allclose(loaded.meshes[0].vertices, expected.meshes[0].vertices)
+    assert loaded.settings.samples == scene.volpath.samples
+
+
+def test_export_vpscene_reports_errors(scene, tmp_path):
+    scene.camera = None
+    with pytest.raises(RuntimeError, match="no active camera"):
+        bpy.ops.volpath.export_scene(filepath=str(tmp_path / "x.vpscene"))
