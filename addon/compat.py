@@ -145,3 +145,8 @@ def spot_is_square(light) -> bool:
 def volume_scatter_phase(node) -> str:
     """Volume Scatter / Coefficients phase function; Henyey-Greenstein only before Blender 4.5."""
     return str(getattr(node, "phase", "HENYEY_GREENSTEIN"))
+
+
+def render_world(view_layer, scene):
+    """The world Cycles renders: View Layer > Override > World (Blender 4.2+), else the scene's."""
+    return getattr(view_layer, "world_override", None) or scene.world

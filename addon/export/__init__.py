@@ -13,6 +13,7 @@ import numpy as np
 
 import volpath_native as vp
 
+from .. import compat
 from . import camera as camera_export
 from . import geometry, lights, shading
 
@@ -35,7 +36,7 @@ def export_scene(depsgraph, camera_object=None):
     meshes, scene_lights, has_volumes = _export_instances(depsgraph, table, reporter)
     if has_volumes:
         meshes += _export_volume_objects(depsgraph, table, reporter)
-    world = shading.export_world(scene.world, table)
+    world = shading.export_world(compat.render_world(depsgraph.view_layer, scene), table)
 
     vp_scene = vp.Scene(camera=camera, film=film, meshes=meshes, materials=table.materials,
                         media=table.media, lights=scene_lights, world=world,
@@ -49,14 +50,15 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
     scene_lights = []
     triangulated: dict = {}  # evaluated mesh data -> LocalMesh (None: no triangles)
     has_volumes = False
+    material_override = depsgraph.view_layer.material_override
     for instance in depsgraph.object_instances:
         obj = instance.object
+        if instance.show_particles and any(system.settings.type == "HAIR" for system in obj.particle_systems):
+            reporter.warn(f"object '{obj.name}': hair particles are not supported; not rendered")
         if not instance.show_self:
             continue  # e.g. an instancer whose own geometry is hidden (Cycles' sync_objects does the same)
         matrix = np.array(instance.matrix_world, dtype=np.float64)
         _warn_unsupported_visibility(obj, reporter)
-        if instance.show_particles and any(system.settings.type == "HAIR" for system in obj.particle_systems):
-            reporter.warn(f"object '{obj.name}': hair particles are not supported; not rendered")
         if obj.type == "LIGHT":
             light = lights.export_light(obj, matrix, reporter)
             if light is not None:
@@ -81,8 +83,11 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
                 triangulated[key] = local
         if local is None:
             continue
-        slot_materials = np.array([table.index_of(slot.material) for slot in obj.material_slots]
-                                  or [table.index_of(None)], dtype=np.int32)
+        if material_override is not None:  # View Layer > Override > Material replaces every slot
+            slot_materials = np.array([table.index_of(material_override)], dtype=np.int32)
+        else:
+            slot_materials = np.array([table.index_of(slot.material) for slot in obj.material_slots]
+                                      or [table.index_of(None)], dtype=np.int32)
         if instance.is_instance:
             parent = instance.parent.name if instance.parent is not None else "instance"
             name = f"{parent}/{obj.name}#{len(meshes)}"

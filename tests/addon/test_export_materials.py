@@ -195,3 +195,12 @@ def test_world_hidden_from_camera_warns(scene):
     world = _world(scene)
     world.cycles_visibility.camera = False
     assert any("world 'Sky'" in w and "camera" in w for w in export(scene)[1])
+
+
+def test_view_layer_material_override(scene):
+    red = node_material("Red", surface=shader("ShaderNodeBsdfDiffuse", Color=(1.0, 0.0, 0.0, 1.0)))
+    blue = node_material("Blue", surface=shader("ShaderNodeBsdfDiffuse", Color=(0.0, 0.0, 1.0, 1.0)))
+    add_mesh(scene, "Box", material=red)
+    bpy.context.view_layer.material_override = blue
+    scene_, _ = export(scene)
+    np.testing.assert_allclose(scene_.materials[scene_.meshes[0].material_ids[0]].base_color, [0, 0, 1])
