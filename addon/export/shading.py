@@ -55,11 +55,9 @@ def _source_socket(socket):
         if link.is_muted or not link.is_valid:
             continue
         source = link.from_socket
-        while source.node.type == "REROUTE":
+        if source.node.type == "REROUTE":  # follow it to what feeds the reroute
             inputs = source.node.inputs
-            if not inputs or not inputs[0].is_linked:
-                return None
-            return _source_socket(inputs[0])
+            return _source_socket(inputs[0]) if inputs and inputs[0].is_linked else None
         return source
     return None
 

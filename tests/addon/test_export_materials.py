@@ -204,3 +204,18 @@ def test_view_layer_material_override(scene):
     bpy.context.view_layer.material_override = blue
     scene_, _ = export(scene)
     np.testing.assert_allclose(scene_.materials[scene_.meshes[0].material_ids[0]].base_color, [0, 0, 1])
+
+
+def test_reroutes_and_muted_links(scene):
+    def rerouted(tree):
+        diffuse = shader("ShaderNodeBsdfDiffuse", Color=(0.2, 0.4, 0.6, 1.0))(tree)
+        reroute = tree.nodes.new("NodeReroute")
+        tree.links.new(diffuse, reroute.inputs[0])
+        return reroute.outputs[0]
+
+    _, material, _ = _material(scene, node_material("Rerouted", surface=rerouted))
+    np.testing.assert_allclose(material.base_color, [0.2, 0.4, 0.6], rtol=1e-6)
+    link = bpy.data.materials["Rerouted"].node_tree.links[0]
+    link.is_muted = True  # a muted link is no link: black surface
+    scene_, _ = export(scene)
+    np.testing.assert_allclose(scene_.materials[scene_.meshes[0].material_ids[0]].base_color, 0.0)
