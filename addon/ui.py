@@ -30,7 +30,7 @@ _EEVEE_ONLY_SETTINGS = ("EEVEE_MATERIAL_PT_settings", "EEVEE_MATERIAL_PT_viewpor
                         "DATA_PT_EEVEE_light_shadow", "DATA_PT_EEVEE_light_influence",
                         "DATA_PT_lightprobe", "DATA_PT_context_lightprobe", "MATERIAL_PT_freestyle",
                         "RENDER_PT_stereoscopy", "DATA_PT_camera_stereoscopy",
-                        "MATERIAL_PT_preview")  # bl_use_preview is off
+                        "MATERIAL_PT_preview", "MATERIAL_PT_gpencil")  # no previews, no grease pencil
 
 _added_to: list = []
 
