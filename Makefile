@@ -22,6 +22,15 @@ demo: venv
 test: venv
 	$(PY) -m pytest -q tests
 
+test-native: venv
+	$(PY) -m pytest -q tests/native
+
+test-addon: venv
+	$(PY) -m pytest -q tests/addon tests/addon_volume
+
+test-compare: venv
+	$(PY) -m pytest -q tests/compare
+
 extension: venv
 	$(PY) addon/build_extension.py build
 
