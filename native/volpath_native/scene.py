@@ -357,7 +357,9 @@ class RenderSettings:
     """Sampling and bounce limits, with Cycles' meaning.
 
     Bounce counts as Cycles' (kernel/integrator/path_state.h): volume_bounces = 0 still allows one
-    scattering vertex with next-event estimation. transparent_bounces counts null-boundary crossings.
+    scattering vertex with next-event estimation. Crossings of null (volume-only) boundaries are
+    not transparent bounces (Cycles kernel/bvh/intersect_filter.h counts only surfaces without
+    SD_HAS_ONLY_VOLUME); transparent_bounces is kept for transparent BSDFs, which have no kind yet.
     volume_sampling: 'mis' (distance + equiangular, one-sample MIS, Cycles' default for
     materials), 'distance' or 'equiangular'.
     """
