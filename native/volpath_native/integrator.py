@@ -35,7 +35,7 @@ from .camera import CameraModel, crop_window
 from .film import PixelFilter
 from .lights import LightSet
 from .phase import hg_eval, hg_sample
-from .sampling import event_dimension, path_keys, uniform
+from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, path_keys, uniform
 from .scene import Scene
 from .vec import any_positive, dot as _dot, max3, sum3
 
@@ -67,12 +67,15 @@ class PathState:
     """Structure of arrays for the paths still alive."""
 
     FIELDS = ("pid", "key", "o", "d", "tmax", "beta", "counts", "bounce", "diffuse", "volume",
-              "bounds", "tat", "prev_pdf", "prev_pos", "travelled", "event", "lead",
+              "bounds", "tat", "prev_pdf", "prev_pos", "travelled", "lead",
               "m_ss", "m_st", "m_em", "m_g")  # m_*: homogeneous coefficients of the current stack
 
     def __init__(self, **arrays):
         for k in self.FIELDS:
             setattr(self, k, arrays[k])
+        # wavefront iteration: all paths of a batch start together and advance in lockstep, so
+        # one counter serves every path (it selects the random dimensions of the iteration)
+        self.iteration = 0
 
     def __len__(self):
         return len(self.pid)
@@ -141,7 +144,7 @@ class Integrator:
                       counts=counts, bounce=zeros_i.copy(), diffuse=zeros_i.copy(),
                       volume=zeros_i.copy(), bounds=zeros_i.copy(), tat=np.zeros(n, bool),
                       prev_pdf=np.zeros(n), prev_pos=o.copy(), travelled=np.zeros(n),
-                      event=zeros_i.copy(), lead=np.zeros(n), m_ss=None, m_st=None, m_em=None, m_g=None)
+                      lead=np.zeros(n), m_ss=None, m_st=None, m_em=None, m_g=None)
         if self.media.any_medium:
             S.m_ss, S.m_st, S.m_em, S.m_g = self.media.coefficients(counts)
         L = np.zeros((n, 3))
@@ -157,9 +160,8 @@ class Integrator:
             raise Cancelled()
 
     def _u(self, S, offset, idx=None):
-        if idx is None:
-            return uniform(S.key, event_dimension(S.event, offset))
-        return uniform(S.key[idx], event_dimension(S.event[idx], offset))
+        dimension = CAMERA_DIMS + S.iteration * DIMS_PER_EVENT + offset
+        return uniform(S.key if idx is None else S.key[idx], dimension)
 
     # -----------------------------------------------------------------------------------------
     def _iteration(self, S: PathState, L: np.ndarray, ctx: "_BatchContext") -> PathState:
@@ -290,7 +292,7 @@ class Integrator:
         if len(s):
             alive[s] &= self._surfaces(S, s, hits, L, ctx)
 
-        S.event += 1
+        S.iteration += 1
         S.keep(alive & any_positive(S.beta))
         return S
 
@@ -439,7 +441,7 @@ class Integrator:
             blocked = self.accel.occluded(origin, wi, remaining)
             if self.media.any_medium:
                 if sig_t is None:
-                    _, sig_t, _, _ = self.media.coefficients(counts)
+                    sig_t = self.media.sigma_t(counts)
                 T *= md.transmittance(sig_t, remaining + margin)
             T[blocked] = 0.0
             return T
@@ -457,7 +459,7 @@ class Integrator:
             seg = np.where(hit, hits.t, remaining[alive])
             if self.media.any_medium:
                 if seg_sig_t is None:
-                    _, seg_sig_t, _, _ = self.media.coefficients(counts[alive])
+                    seg_sig_t = self.media.sigma_t(counts[alive])
                 T[alive] *= md.transmittance(seg_sig_t, seg + lead[alive] + np.where(hit, 0.0, margin))
                 if self.media.has_grids:
                     T[alive] *= self._grid_transmittance(origin[alive], wi[alive], seg, counts[alive], ctx)

@@ -122,6 +122,9 @@ class LightSet:
         self.hittable_rows = self.hittable_rows[self.hittable_rows < self.n_lamps]
         self.sun_rows = np.nonzero((self.kind == SUN) & (self.cos_half < 1.0))[0]
         self.world_row = n - 1 if n and self.kind[-1] == WORLD else -1
+        self.has_spots = bool(np.any(self.spot_smooth > 0))
+        kinds = np.unique(self.kind)
+        self.single_kind = int(kinds[0]) if len(kinds) == 1 else None
 
     # -----------------------------------------------------------------------------------------
     def _lamp_rows(self, light) -> list[dict]:
@@ -175,6 +178,8 @@ class LightSet:
         return (k != SUN) & (k != WORLD)
 
     def _spot_mask(self, rows, light_to_point_dir):
+        if not self.has_spots:
+            return 1.0
         smooth = self.spot_smooth[rows]
         cos_angle = _dot(light_to_point_dir, self.normal[rows])
         mask = _smoothstep((cos_angle - self.cos_half[rows]) * smooth)
@@ -183,20 +188,27 @@ class LightSet:
     def sample(self, rows: np.ndarray, p: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> LightSample:
         """Sample a point/direction on light `rows[i]` as seen from p[i]."""
         n = len(rows)
-        wi = np.zeros((n, 3))
-        wi[:, 2] = 1.0
-        dist = np.full(n, np.inf)
-        value = np.zeros((n, 3))
-        pdf = np.zeros(n)
-        kind = self.kind[rows]
-        for k in np.unique(kind):
-            m = np.nonzero(kind == k)[0]
-            r = rows[m]
-            w, d, v, pd = getattr(self, _SAMPLERS[k])(r, p[m], u1[m], u2[m])
-            wi[m], dist[m], value[m], pdf[m] = w, d, v, pd
+        if self.single_kind is not None:  # common case: no per-kind split and scatter
+            wi, dist, value, pdf = getattr(self, _SAMPLERS[self.single_kind])(rows, p, u1, u2)
+            value = np.array(value, dtype=np.float64)  # own, writable copy (may be a broadcast)
+        else:
+            wi = np.zeros((n, 3))
+            wi[:, 2] = 1.0
+            dist = np.full(n, np.inf)
+            value = np.zeros((n, 3))
+            pdf = np.zeros(n)
+            kind = self.kind[rows]
+            for k in np.unique(kind):
+                m = np.nonzero(kind == k)[0]
+                r = rows[m]
+                w, d, v, pd = getattr(self, _SAMPLERS[k])(r, p[m], u1[m], u2[m])
+                wi[m], dist[m], value[m], pdf[m] = w, d, v, pd
         sel = self.select_prob[rows]
         ok = sel > 0
-        value = np.where(ok[:, None], value / np.where(ok, sel, 1.0)[:, None], 0.0)
+        if ok.all():
+            value /= sel[:, None]
+        else:
+            value = np.where(ok[:, None], value / np.where(ok, sel, 1.0)[:, None], 0.0)
         return LightSample(wi, dist, value, pdf * sel)
 
     def _to_light(self, rows, p):

@@ -14,6 +14,7 @@ from .accel import Accelerator
 from .scene import Scene
 from .vec import norm, sum3
 
+_MAX_TABLE_VOLUMES = 12  # 4096 combinations: coefficient lookup tables stay small
 _WALK_DIRECTION = np.array([0.5773, 0.5774, 0.5775]) / np.linalg.norm([0.5773, 0.5774, 0.5775])
 
 
@@ -57,6 +58,7 @@ class MediaTable:
                                                        or np.any(self.world_emission > 0))
         self.accel = accel
         self.warnings: list[str] = []
+        self._tables = self._build_tables()
         world_t = self.world_sigma_s + self.world_sigma_a
         if np.any((self.world_emission > 0) & (world_t <= 0)):
             self.warnings.append("world medium emits but does not attenuate: its emission would be "
@@ -74,6 +76,41 @@ class MediaTable:
 
     def coefficients(self, counts: np.ndarray):
         """(sigma_s, sigma_t, emission, g) per path for volume-stack counters (N, V)."""
+        if self._tables is not None:
+            key = self._stack_key(counts)
+            return tuple(np.take(table, key, axis=0) for table in self._tables)
+        return self._coefficients_direct(counts)
+
+    def sigma_t(self, counts: np.ndarray) -> np.ndarray:
+        """Only sigma_t of coefficients() (shadow rays need nothing else)."""
+        if self._tables is not None:
+            return np.take(self._tables[1], self._stack_key(counts), axis=0)
+        return self._coefficients_direct(counts)[1]
+
+    def _stack_key(self, counts: np.ndarray) -> np.ndarray:
+        """Which volumes contain each path, as a bit set (row of the coefficient tables)."""
+        if self.n_volumes == 0:
+            return np.zeros(len(counts), np.intp)
+        inside = counts[:, :self.n_volumes] > 0
+        if self.n_volumes == 1:
+            return inside[:, 0].view(np.uint8)
+        key = inside[:, 0].astype(np.int32)
+        for v in range(1, self.n_volumes):
+            key |= inside[:, v].astype(np.int32) << v
+        return key
+
+    def _build_tables(self):
+        """Coefficients of every combination of volumes when there are few volumes: a per-path
+        lookup then replaces the matrix products of _coefficients_direct (it runs after every
+        null-boundary crossing and for every shadow segment)."""
+        if self.n_volumes > _MAX_TABLE_VOLUMES:
+            return None
+        combos = (np.arange(1 << self.n_volumes)[:, None] >> np.arange(self.n_volumes)[None, :]) & 1
+        counts = np.zeros((len(combos), max(self.n_volumes, 1)), np.int8)
+        counts[:, :self.n_volumes] = combos
+        return tuple(np.ascontiguousarray(a) for a in self._coefficients_direct(counts))
+
+    def _coefficients_direct(self, counts: np.ndarray):
         n = len(counts)
         sigma_s = np.broadcast_to(self.world_sigma_s, (n, 3)).copy()
         sigma_a = np.broadcast_to(self.world_sigma_a, (n, 3)).copy()

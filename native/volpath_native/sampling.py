@@ -20,11 +20,27 @@ DIMS_PER_EVENT = 24
 
 def _mix64(x: np.ndarray) -> np.ndarray:
     """splitmix64 finaliser on a uint64 array (wrapping arithmetic)."""
+    z = x + _GOLDEN
+    return _mix64_inplace(z)
+
+
+def _mix64_inplace(z: np.ndarray) -> np.ndarray:
+    """The splitmix64 finaliser without the increment, overwriting z: two buffers instead of the
+    six temporaries of the plain expression (the RNG runs on every wavefront stage)."""
+    tmp = np.empty_like(z)
     with np.errstate(over="ignore"):
-        z = x + _GOLDEN
-        z = (z ^ (z >> np.uint64(30))) * _MIX1
-        z = (z ^ (z >> np.uint64(27))) * _MIX2
-        return z ^ (z >> np.uint64(31))
+        np.right_shift(z, _S30, out=tmp)
+        z ^= tmp
+        z *= _MIX1
+        np.right_shift(z, _S27, out=tmp)
+        z ^= tmp
+        z *= _MIX2
+        np.right_shift(z, _S31, out=tmp)
+        z ^= tmp
+    return z
+
+
+_S30, _S27, _S31, _S11 = (np.uint64(k) for k in (30, 27, 31, 11))
 
 
 def path_keys(seed: int, pixel: np.ndarray, sample: np.ndarray) -> np.ndarray:
@@ -38,9 +54,31 @@ def path_keys(seed: int, pixel: np.ndarray, sample: np.ndarray) -> np.ndarray:
 def uniform(keys: np.ndarray, dimension) -> np.ndarray:
     """Uniform float64 in [0, 1) for each key at the given dimension (scalar or per-path array)."""
     with np.errstate(over="ignore"):
-        dim = np.asarray(dimension).astype(np.uint64) * _MIX2
-        bits = _mix64(keys ^ dim)
-    return (bits >> np.uint64(11)).astype(np.float64) * _INV_2_53
+        if np.ndim(dimension) == 0:
+            z = keys ^ np.uint64(int(dimension) * int(_MIX2) & 0xFFFFFFFFFFFFFFFF)
+            z += _GOLDEN
+        else:
+            z = keys ^ (np.asarray(dimension).astype(np.uint64) * _MIX2)
+            z += _GOLDEN
+        _mix64_inplace(z)
+        z >>= _S11
+    out = z.astype(np.float64)
+    out *= _INV_2_53
+    return out
+
+
+def uniform_block(keys: np.ndarray, dimensions) -> np.ndarray:
+    """Uniforms (len(dimensions), N) for scalar dimensions, identical to uniform() per row, drawn
+    in one pass (fewer numpy calls when a stage needs several dimensions for the same paths)."""
+    with np.errstate(over="ignore"):
+        salts = np.array([int(d) * int(_MIX2) & 0xFFFFFFFFFFFFFFFF for d in dimensions], dtype=np.uint64)
+        z = keys[None, :] ^ salts[:, None]
+        z += _GOLDEN
+        _mix64_inplace(z)
+        z >>= _S11
+    out = z.astype(np.float64)
+    out *= _INV_2_53
+    return out
 
 
 def event_dimension(event: np.ndarray, offset: int) -> np.ndarray:
