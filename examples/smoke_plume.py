@@ -71,7 +71,7 @@ def plume_density(shape=GRID_SHAPE, seed=SEED) -> np.ndarray:
 
 
 def write_plume_vdb(path, shape=GRID_SHAPE, voxel_size=VOXEL_SIZE) -> Path:
-    """The plume as a 'density' FloatGrid; index (0,0,0) of the base centre sits at object origin."""
+    """The plume as a 'density' FloatGrid; the base centre sits at the object origin."""
     openvdb = import_openvdb()
     grid = openvdb.FloatGrid()
     grid.name = "density"
@@ -83,9 +83,9 @@ def write_plume_vdb(path, shape=GRID_SHAPE, voxel_size=VOXEL_SIZE) -> Path:
     return path
 
 
-def default_vdb_path() -> Path:
+def default_vdb_path(shape=GRID_SHAPE, voxel_size=VOXEL_SIZE) -> Path:
     """A stable cache file for build() without an explicit path (content is deterministic)."""
-    key = hashlib.sha1(repr((GRID_SHAPE, VOXEL_SIZE, SEED)).encode()).hexdigest()[:10]
+    key = hashlib.sha1(repr((tuple(shape), voxel_size, SEED)).encode()).hexdigest()[:10]
     return Path(tempfile.gettempdir()) / "volpath_examples" / f"smoke_plume_{key}.vdb"
 
 
@@ -93,10 +93,13 @@ def smoke_material(density=10.0, color=(0.75, 0.78, 0.85), anisotropy=0.3):
     return sb.principled_volume_material("Smoke", density=density, color=color, anisotropy=anisotropy)
 
 
-def build(resolution=(64, 64), samples=64, vdb_path=None, density=10.0):
+def build(resolution=(64, 64), samples=64, vdb_path=None, density=10.0, grid_shape=GRID_SHAPE):
+    """The plume scene. grid_shape: voxels per axis; the plume keeps its size (1.2 x 1.2 x 2.4 m at
+    the default shape), so a coarser grid has larger voxels (cheap test variants)."""
     scene = sb.new_scene(resolution, samples)
-    vdb_path = Path(vdb_path) if vdb_path is not None else default_vdb_path()
-    write_plume_vdb(vdb_path)
+    voxel_size = VOXEL_SIZE * GRID_SHAPE[2] / grid_shape[2]
+    vdb_path = Path(vdb_path) if vdb_path is not None else default_vdb_path(grid_shape, voxel_size)
+    write_plume_vdb(vdb_path, tuple(grid_shape), voxel_size)
 
     floor = sb.diffuse_material("Floor", (0.6, 0.6, 0.6))
     sb.add_quad(scene, "Floor", [(-4, -4, 0), (4, -4, 0), (4, 4, 0), (-4, 4, 0)], floor)
