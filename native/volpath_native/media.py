@@ -174,11 +174,17 @@ def channel_probabilities(beta: np.ndarray, sigma_s: np.ndarray, sigma_t: np.nda
                           valid: np.ndarray | None = None) -> np.ndarray:
     """Per-path channel probabilities proportional to |throughput * albedo| (Cycles), with a
     uniform share so every channel that carries energy can be sampled."""
-    albedo = np.where(sigma_t > 0, sigma_s / np.where(sigma_t > 0, sigma_t, 1.0), 0.0)
-    w = np.abs(beta) * albedo
-    s = sum3(w)[:, None]
-    w = np.where(s > 0, w / np.where(s > 0, s, 1.0), 1.0 / 3.0)
-    p = 0.9 * w + 0.1 / 3.0
+    w = np.divide(sigma_s, sigma_t, out=np.zeros_like(sigma_s), where=sigma_t > 0)  # albedo
+    w *= np.abs(beta)
+    s = sum3(w)
+    positive = s > 0
+    if positive.all():
+        w /= s[:, None]
+    else:
+        w = np.where(positive[:, None], w / np.where(positive, s, 1.0)[:, None], 1.0 / 3.0)
+    w *= 0.9
+    w += 0.1 / 3.0
+    p = w
     if valid is not None:
         p = p * valid
         s = sum3(p)[:, None]
@@ -200,6 +206,10 @@ def sample_distance(sigma_t, p, u_channel, u):
 
 def distance_pdf(sigma_t, p, t):
     """Channel-averaged free-flight density at t and survival probability beyond t."""
+    if np.isfinite(t).all():  # usual case: one exp, no masks
+        tr = transmittance(sigma_t, t)
+        weighted = p * tr
+        return sum3(weighted * sigma_t), sum3(weighted), tr
     tt = np.where(np.isfinite(t), t, 0.0)[:, None]
     tr = np.where(np.isfinite(t)[:, None], np.exp(-sigma_t * tt), (sigma_t <= 0).astype(np.float64))
     return sum3(p * sigma_t * tr), sum3(p * tr), tr
@@ -217,6 +227,19 @@ def sample_distance_truncated(sigma_t, p, u_channel, u, t_end):
 
 
 def truncated_distance_pdf(sigma_t, p, t, t_end):
+    if np.isfinite(t_end).all():  # usual case (segments end on a surface): fewer masks
+        te = t_end[:, None]
+        optical = sigma_t * te
+        mass = np.expm1(-optical)
+        np.negative(mass, out=mass)
+        dens = transmittance(sigma_t, t)
+        dens *= sigma_t
+        dens /= np.where(mass > 0, mass, 1.0)
+        small = optical < 1e-9
+        if small.any():
+            dens = np.where(small, 1.0 / np.where(te > 0, te, np.inf), dens)
+        dens *= p
+        return sum3(dens)
     finite = np.isfinite(t_end)[:, None]
     te = np.where(finite, t_end[:, None], 0.0)
     mass = np.where(finite, -np.expm1(-sigma_t * te), 1.0)
@@ -228,6 +251,10 @@ def truncated_distance_pdf(sigma_t, p, t, t_end):
 
 def transmittance(sigma_t, distance):
     """exp(-sigma_t d), with exp(-0 * inf) = 1."""
+    if np.isfinite(distance).all():  # usual case: exp(-0 * d) = 1 needs no mask
+        out = sigma_t * distance[:, None]
+        np.negative(out, out=out)
+        return np.exp(out, out=out)
     d = distance[:, None]
     return np.where(sigma_t > 0, np.exp(-sigma_t * np.where(np.isfinite(d), d, 1e300)), 1.0)
 

@@ -144,7 +144,11 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
             n_smp = min(per_round, st.samples - done)
             pixels = np.tile(np.arange(n_pix, dtype=np.int64), n_smp)
             samples = np.repeat(np.arange(done, done + n_smp, dtype=np.int64), n_pix)
-            chunks = [(pixels[k:k + batch], samples[k:k + batch]) for k in range(0, len(pixels), batch)]
+            # every thread gets work: at least `threads` chunks of near-equal size (a small image
+            # would otherwise fit one batch and leave the other threads idle)
+            n_chunks = max(-(-len(pixels) // batch), min(threads, -(-len(pixels) // 256)))
+            size = -(-len(pixels) // n_chunks)
+            chunks = [(pixels[k:k + size], samples[k:k + size]) for k in range(0, len(pixels), size)]
             # A round is committed to the film only when complete, so after a cancel every pixel
             # still holds the same number of samples.
             round_film = []
