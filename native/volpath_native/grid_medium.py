@@ -45,7 +45,7 @@ import numpy as np
 from .scene import Mesh, SceneError, rgb
 
 __all__ = ["GridMedium", "FreeFlight", "MajorantTooLowError", "principled_volume_coefficients",
-           "volume_object_density_factor"]
+           "volume_object_density_factor", "blackbody_rec709", "blackbody_emission"]
 
 #: Default number of majorant cells along each axis (capped by the grid resolution).
 DEFAULT_MAJORANT_RESOLUTION = 16
@@ -86,6 +86,65 @@ def volume_object_density_factor(object_to_world, object_space: bool = True) -> 
     return 1.0 / length
 
 
+# Cycles' fit of the blackbody colour in linear Rec.709 (normalised to luminance ~1), piecewise over
+# temperature: R, G = a/T + b T + c; B = ((a T + b) T + c) T + d. Coefficients: the data tables of
+# intern/cycles/kernel/tables.h (blackbody_table_r/g/b), evaluated as kernel/svm/math_util.h
+# svm_math_blackbody_color_rec709 does; identical in Blender 5.0's intern/cycles. Checked against
+# Cycles 5.0.1 (bpy) renders of emitting volumes at 700..13000 K: equal to float precision.
+_BLACKBODY_BREAKS = np.array([965.0, 1167.0, 1449.0, 1902.0, 3315.0, 6365.0])
+_BLACKBODY_R = np.array([
+    [1.61919106e+03, -2.05010916e-03, 5.02995757e+00], [2.48845471e+03, -1.11330907e-03, 3.22621544e+00],
+    [3.34143193e+03, -4.86551192e-04, 1.76486769e+00], [4.09461742e+03, -1.27446582e-04, 7.25731635e-01],
+    [4.67028036e+03, 2.91258199e-05, 1.26703442e-01], [4.59509185e+03, 2.87495649e-05, 1.50345020e-01],
+    [3.78717450e+03, 9.35907826e-06, 3.99075871e-01]])
+_BLACKBODY_G = np.array([
+    [-4.88999748e+02, 6.04330754e-04, -7.55807526e-02], [-7.55994277e+02, 3.16730098e-04, 4.78306139e-01],
+    [-1.02363977e+03, 1.20223470e-04, 9.36662319e-01], [-1.26571316e+03, 4.87340896e-06, 1.27054498e+00],
+    [-1.42529332e+03, -4.01150431e-05, 1.43972784e+00], [-1.17554822e+03, -2.16378048e-05, 1.30408023e+00],
+    [-5.00799571e+02, -4.59832026e-06, 1.09098763e+00]])
+_BLACKBODY_B = np.array([
+    [5.96945309e-11, -4.85742887e-08, -9.70622247e-05, -4.07936148e-03],
+    [2.40430366e-11, 5.55021075e-08, -1.98503712e-04, 2.89312858e-02],
+    [-1.40949732e-11, 1.89878968e-07, -3.56632824e-04, 9.10767778e-02],
+    [-3.61460868e-11, 2.84822009e-07, -4.93211319e-04, 1.56723440e-01],
+    [-1.97075738e-11, 1.75359352e-07, -2.50542825e-04, -2.22783266e-02],
+    [-1.61997957e-13, -1.64216008e-08, 3.86216271e-04, -7.38077418e-01],
+    [6.72650283e-13, -2.73078809e-08, 4.24098264e-04, -7.52335691e-01]])
+_BLACKBODY_HOT = np.array([0.8262954810464208, 0.9945080501520986, 1.566307710274283])   # T >= 12000 K
+_BLACKBODY_COLD = np.array([5.413294490189271, -0.20319390035873933, -0.0822535242887164])  # T < 800 K
+#: Stefan-Boltzmann constant x 1e-6 / pi, Cycles' scale of the Principled Volume's blackbody.
+BLACKBODY_SIGMA = 5.670373e-8 * 1e-6 / np.pi
+
+
+def blackbody_rec709(temperature) -> np.ndarray:
+    """Cycles' blackbody colour (linear Rec.709, Blender 5.0's default scene-linear space) for an
+    array of temperatures in kelvin: shape (..., 3). Not clamped: below ~1000 K green and blue are
+    slightly negative, as in Cycles (the Principled Volume does not clamp them)."""
+    t = np.asarray(temperature, dtype=np.float64)
+    i = np.searchsorted(_BLACKBODY_BREAKS, t, side="right")
+    safe_t = np.maximum(t, 1.0)
+    r, g, b = _BLACKBODY_R[i], _BLACKBODY_G[i], _BLACKBODY_B[i]
+    color = np.stack([r[..., 0] / safe_t + r[..., 1] * safe_t + r[..., 2],
+                      g[..., 0] / safe_t + g[..., 1] * safe_t + g[..., 2],
+                      ((b[..., 0] * safe_t + b[..., 1]) * safe_t + b[..., 2]) * safe_t + b[..., 3]], axis=-1)
+    color = np.where((t >= 12000.0)[..., None], _BLACKBODY_HOT, color)
+    return np.where((t < 800.0)[..., None], _BLACKBODY_COLD, color)
+
+
+def blackbody_emission(temperature, blackbody_intensity, tint=1.0) -> np.ndarray:
+    """Principled Volume blackbody emission per unit length, W/(m^3 sr), shape (..., 3):
+    tint x sigma/pi x mix(1, T^4, intensity) x blackbody_rec709(T), T = max(temperature, 0)
+    (kernel/svm/closure.h svm_node_principled_volume; zero when intensity <= 0, as Cycles skips it).
+    Not scaled by density; multiply by the mix weight and object density factor."""
+    t = np.maximum(np.asarray(temperature, dtype=np.float64), 0.0)
+    intensity = float(blackbody_intensity)
+    if not intensity > 0.0:
+        return np.zeros(t.shape + (3,))
+    power = BLACKBODY_SIGMA * ((1.0 - intensity) + intensity * t ** 4)
+    emission = power[..., None] * blackbody_rec709(t) * rgb(tint, "blackbody tint")
+    return np.where((power > 0.0)[..., None], emission, 0.0)
+
+
 @dataclass
 class FreeFlight:
     """Result of `GridMedium.sample_free_flight` for N rays.
@@ -117,7 +176,8 @@ class GridMedium:
     emission: constant RGB emitted radiance per unit length W/(m^3 sr), *not* scaled by density
         (Cycles' Principled Volume emission), applied inside the medium's box, index space
         [-1, n + 1] per axis of the given arrays: Cycles' volume bounds (see the padding below).
-    emission_grid: optional (nx, ny, nz, 3) per-voxel emission added to it (blackbody, flame).
+    emission_grid: optional (nx, ny, nz, 3) per-voxel emission added to it (blackbody, flame), interpolated
+        trilinearly: the expectation of Cycles' stochastic lookup of the per-voxel value.
     g: Henyey-Greenstein anisotropy.
     majorant_resolution: majorant cells per axis (at most one cell per voxel interval).
     debug: check at every density evaluation that sigma_t <= majorant; raise MajorantTooLowError.
@@ -132,7 +192,9 @@ class GridMedium:
         self.g = float(np.clip(np.nan_to_num(float(g)), -0.999, 0.999))
         self.sigma_s = np.maximum(rgb(sigma_s, f"grid medium '{name}' sigma_s"), 0.0)
         self.sigma_a = np.maximum(rgb(sigma_a, f"grid medium '{name}' sigma_a"), 0.0)
-        self.emission = np.maximum(rgb(emission, f"grid medium '{name}' emission"), 0.0)
+        # Emission is not clamped: Cycles' blackbody colour has small negative green/blue below
+        # ~1000 K and the Principled Volume adds it as is (kernel/svm/closure.h).
+        self.emission = rgb(emission, f"grid medium '{name}' emission")
         self.debug = bool(debug)
 
         density = np.asarray(density, dtype=np.float32)
@@ -152,9 +214,12 @@ class GridMedium:
         # linear interpolation (scene/volume.cpp VolumeMeshBuilder: bounding box of the active
         # voxels dilated by one; measured with Blender 5.0.1 Cycles: constant emission of a
         # Volume object fills exactly [lo - 1, hi + 2]).
-        def pad(grid):  # written in place: no second full-size temporary
+        def pad(grid, clamp=True):  # written in place: no second full-size temporary
             out = np.zeros(tuple(np.add(grid.shape[:3], 3)) + grid.shape[3:], dtype=np.float32)
-            np.maximum(grid, 0.0, out=out[1:-2, 1:-2, 1:-2])
+            if clamp:
+                np.maximum(grid, 0.0, out=out[1:-2, 1:-2, 1:-2])
+            else:
+                out[1:-2, 1:-2, 1:-2] = grid
             return out
 
         self.density = pad(density)
@@ -170,7 +235,8 @@ class GridMedium:
             self.scatter_grid = pad(self._checked_rgb_grid(scatter_grid, density.shape, "scatter_grid"))
             self.absorb_grid = pad(self._checked_rgb_grid(absorb_grid, density.shape, "absorb_grid"))
         if emission_grid is not None:
-            self.emission_grid = pad(self._checked_rgb_grid(emission_grid, density.shape, "emission_grid"))
+            self.emission_grid = pad(self._checked_rgb_grid(emission_grid, density.shape, "emission_grid"),
+                                     clamp=False)
         self.majorant_resolution = int(majorant_resolution)
         self._build_majorant_grid(self.majorant_resolution)
 
@@ -183,7 +249,7 @@ class GridMedium:
             raise SceneError(f"grid medium '{self.name}': {what} has shape {grid.shape}, expected {tuple(shape) + (3,)}")
         if not np.all(np.isfinite(grid)):
             raise SceneError(f"grid medium '{self.name}': {what} has non-finite values")
-        return grid  # negative values clamp to 0 when padded
+        return grid  # negative scatter/absorb factors clamp to 0 when padded (emission stays signed)
 
     @classmethod
     def with_color_grid(cls, name, density, color_grid, index_to_world, *, color=0.5, density_scale=1.0,
@@ -241,10 +307,10 @@ class GridMedium:
         # Scalar majorant (max channel), as Cycles: one free-flight distribution for all channels.
         majorant = self.majorant_rgb.max(axis=-1)
         emissive = np.zeros(majorant.shape, dtype=bool)
-        if np.any(self.emission > 0):
+        if np.any(self.emission != 0):
             emissive[:] = True
         if self.emission_grid is not None:
-            emissive |= cell_max(self.emission_grid.max(axis=-1)) > 0
+            emissive |= cell_max(np.abs(self.emission_grid).max(axis=-1)) > 0
         if emissive.any():
             # Emission is collected at tentative collisions; where the medium is (nearly) empty but
             # glows, a floor on the majorant (only extra null collisions: unbiased) gives a few
@@ -369,7 +435,7 @@ class GridMedium:
             sigma_s = rho * self.sigma_s
             sigma_a = rho * self.sigma_a
         emission = np.zeros_like(sigma_s)
-        if np.any(self.emission > 0):
+        if np.any(self.emission != 0):
             # Constant emission fills the padded box (Cycles' volume bounds, see the class doc).
             inside = np.all((p >= 0) & (p <= self.shape - 1), axis=1)
             emission += inside[:, None] * self.emission
