@@ -100,8 +100,17 @@ def orthonormal_basis(n: np.ndarray):
 
 
 def local_to_world(n: np.ndarray, x, y, z) -> np.ndarray:
-    t, s = orthonormal_basis(n)
-    return t * x[:, None] + s * y[:, None] + n * z[:, None]
+    """x t + y s + z n with (t, s) of orthonormal_basis, column by column (no (N,3) temporaries:
+    every scattering and light sample goes through here)."""
+    n0, n1, n2 = n[:, 0], n[:, 1], n[:, 2]
+    sign = np.where(n2 >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + n2)
+    b = n0 * n1 * a
+    out = np.empty((len(n), 3))
+    out[:, 0] = (1.0 + sign * n0 ** 2 * a) * x + b * y + n0 * z
+    out[:, 1] = sign * b * x + (sign + n1 ** 2 * a) * y + n1 * z
+    out[:, 2] = -sign * n0 * x - n1 * y + n2 * z
+    return out
 
 
 def cosine_hemisphere(n: np.ndarray, u1: np.ndarray, u2: np.ndarray):

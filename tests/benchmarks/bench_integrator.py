@@ -98,6 +98,62 @@ def raw_embree_rays_per_second(scene: Scene, batch: int, threads: int, repeats: 
     return out
 
 
+def _spin_rate(work, seconds=1.0) -> float:
+    """Iterations per second a pure-Python counting thread achieves while `work` runs in a loop
+    on this thread (work=None: alone). It only counts while it holds the GIL."""
+    stop, out = threading.Event(), []
+
+    def spin():
+        count = 0
+        while not stop.is_set():
+            count += 1
+        out.append(count)
+    thread = threading.Thread(target=spin)
+    start = time.perf_counter()
+    thread.start()
+    while time.perf_counter() - start < seconds:
+        if work is None:
+            time.sleep(0.01)
+        else:
+            work()
+    stop.set()
+    thread.join()
+    return out[0] / (time.perf_counter() - start)
+
+
+def gil_probe(scene: Scene, batch: int) -> dict:
+    """How much of the interpreter the renderer leaves to a second thread, compared with a call
+    known to release the GIL (an Embree query on the same geometry): a ratio measured in one run,
+    so a loaded machine affects both sides alike. 1.0 = render threads overlap as well as Embree
+    calls do; a GIL-bound renderer would score near 0."""
+    from volpath_native.integrator import Integrator
+    integrator = Integrator(scene)
+    accel = integrator.accel
+    rng = np.random.default_rng(1)
+    o = rng.random((batch, 3)) * 5.4 + 0.05
+    d = rng.normal(size=(batch, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    n = min(batch, 16384)
+    alone = _spin_rate(None)
+    with_embree = _spin_rate(lambda: accel.intersect(o, d))
+    with_render = _spin_rate(lambda: integrator.render_paths(np.arange(n), np.zeros(n, np.int64)))
+    return dict(alone=alone, embree=with_embree / alone, render=with_render / alone)
+
+
+def cpu_paths_per_second(scene: Scene, batch: int, repeats: int = 3) -> float:
+    """Paths per second of CPU time of one thread on one batch (best of `repeats`): insensitive to
+    other processes competing for the cores, unlike wall-clock samples/s."""
+    from volpath_native.integrator import Integrator
+    integrator = Integrator(scene)
+    n = min(batch, 256 * 256)
+    best = np.inf
+    for r in range(repeats):
+        start = time.thread_time()
+        integrator.render_paths(np.arange(n), np.full(n, r, np.int64))
+        best = min(best, time.thread_time() - start)
+    return n / best
+
+
 def run(spp: int, batch: int, profile: bool) -> None:
     print(f"Cornell box + homogeneous fog + point light, 256x256, {spp} spp, batch {batch}")
     results = {}
@@ -118,6 +174,12 @@ def run(spp: int, batch: int, profile: bool) -> None:
         print(f"             raw embreex: closest {raw['closest'] / 1e6:5.2f} M rays/s, occluded "
               f"{raw['occluded'] / 1e6:5.2f} M rays/s, same mix {raw_mix / 1e6:5.2f} M rays/s -> "
               f"tracing efficiency {st['rays_per_second'] / raw_mix:.3f}")
+    cpu_rate = cpu_paths_per_second(cornell_fog_scene(spp=1, threads=1, batch_size=batch), batch)
+    print(f"  1 thread, CPU time only: {cpu_rate / 1e3:.1f} k paths/s (one batch, best of 3)")
+    gil = gil_probe(cornell_fog_scene(spp=1, threads=1, batch_size=batch), batch)
+    print(f"  GIL probe: a second Python thread keeps {gil['embree']:.2f} of its solo speed during Embree "
+          f"queries and {gil['render']:.2f} during render_paths -> render threads overlap "
+          f"{gil['render'] / max(gil['embree'], 1e-9):.2f} as well as pure Embree work (1.0 = GIL never the limit)")
     one = results[(1, "threads")]
     for key in ((2, "threads"), (2, "processes")):
         print(f"  speedup 1 thread -> 2 {key[1]}: {one.seconds / results[key].seconds:.2f}x, images identical: "
