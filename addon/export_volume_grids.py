@@ -1,14 +1,15 @@
 """Export Blender Volume objects (OpenVDB grids) to dense numpy grids and GridMedium instances.
 
-Not registered anywhere yet: the scene exporter calls `export_volume_objects(depsgraph)` and
-`grid_medium_from_volume(...)` once heterogeneous media land in the scene model.
+The scene exporter (addon/export/__init__.py, _export_volume_objects) calls
+`export_volume_objects(depsgraph, warnings)` and `grid_medium_from_volume(exported, warnings)`.
 
 How the grids are read: the *evaluated* Volume's grids (after modifiers / geometry nodes) are
 written with `Volume.grids.save()` to a temporary .vdb and read back with the `openvdb` module that
 Blender's bundled Python ships. Inside a real Blender it imports directly; with the `bpy` module
 from PyPI its folder (Blender's bundled site-packages) is added to sys.path explicitly.
-Each float or vector grid is copied (copyToArray) into a dense float32 array over its active-voxel
-bounding box; its index->world transform is the grid's own linear transform composed with the
+Each float or vector grid is copied (copyToArray) into a dense float32 array over the union of the
+active-voxel bounding boxes of the grids on its voxel lattice (so density, colour, temperature and
+flame align voxel for voxel); its index->world transform is the grid's own linear transform composed with the
 object's matrix_world, as Cycles does (intern/cycles/scene/image_vdb.cpp: index_to_object from the
 grid's affine map; object transform applied on top).
 
@@ -27,7 +28,7 @@ from typing import Optional
 import bpy
 import numpy as np
 
-from volpath_native.grid_medium import (GridMedium, principled_volume_coefficients,
+from volpath_native.grid_medium import (GridMedium, blackbody_emission, principled_volume_coefficients,
                                         volume_object_density_factor)
 
 from .compat import material_node_tree
@@ -99,8 +100,44 @@ def _affine_from_openvdb(transform) -> Optional[np.ndarray]:
     return matrix
 
 
-def _dense_copy(grid, warnings: list, label: str) -> Optional[DenseGrid]:
-    """Copy one openvdb grid to a DenseGrid over its active bounding box (None + warning if unusable)."""
+def _usable(grid, warnings: list, label: str) -> bool:
+    """True for a non-empty float/vector grid with a linear transform (else a warning)."""
+    if grid.valueTypeName not in ("float", "double", "vec3s", "vec3d"):
+        warnings.append(f"{label}: grid '{grid.name}' has unsupported type '{grid.valueTypeName}', skipped")
+        return False
+    if grid.activeVoxelCount() == 0:
+        warnings.append(f"{label}: grid '{grid.name}' is empty, skipped")
+        return False
+    if _affine_from_openvdb(grid.transform) is None:
+        warnings.append(f"{label}: grid '{grid.name}' has a non-linear (frustum) transform, skipped")
+        return False
+    return True
+
+
+def _shared_boxes(grids) -> dict:
+    """Grid name -> (lo, hi) index box to copy: grids on the same voxel lattice (equal transforms)
+    share the union of their active boxes, so their arrays align voxel for voxel (temperature and
+    colour are then looked up at the density's voxels, and none loses voxels outside the others')."""
+    boxes, groups = {}, []  # groups: [affine, lo, hi, names]
+    for grid in grids:
+        affine = _affine_from_openvdb(grid.transform)
+        lo, hi = (np.array(v, dtype=np.int64) for v in grid.evalActiveVoxelBoundingBox())
+        for group in groups:
+            if np.allclose(group[0], affine, rtol=1e-6, atol=1e-9):
+                group[1], group[2] = np.minimum(group[1], lo), np.maximum(group[2], hi)
+                group[3].append(grid.name)
+                break
+        else:
+            groups.append([affine, lo, hi, [grid.name]])
+    for _, lo, hi, names in groups:
+        for name in names:
+            boxes[name] = (tuple(int(v) for v in lo), tuple(int(v) for v in hi))
+    return boxes
+
+
+def _dense_copy(grid, warnings: list, label: str, box=None) -> Optional[DenseGrid]:
+    """Copy one openvdb grid to a DenseGrid over `box` ((lo, hi) index corners, inclusive; default
+    its active bounding box). None + warning if unusable."""
     value_type = grid.valueTypeName
     if value_type in ("float", "double"):
         channels = 1
@@ -116,7 +153,7 @@ def _dense_copy(grid, warnings: list, label: str) -> Optional[DenseGrid]:
     if grid_to_object is None:
         warnings.append(f"{label}: grid '{grid.name}' has a non-linear (frustum) transform, skipped")
         return None
-    lo, hi = grid.evalActiveVoxelBoundingBox()
+    lo, hi = box if box is not None else grid.evalActiveVoxelBoundingBox()
     shape = tuple(int(b - a + 1) for a, b in zip(lo, hi))
     if int(np.prod(shape, dtype=np.int64)) * channels > MAX_DENSE_VOXELS:
         warnings.append(f"{label}: grid '{grid.name}' spans {shape} voxels, too large for dense storage "
@@ -172,10 +209,10 @@ def export_volume_object(obj, warnings: list, temp_dir: Optional[str] = None,
         except Exception as error:  # noqa: BLE001 - openvdb raises plain RuntimeError/KeyError
             warnings.append(f"{label}: evaluated grids could not be written/read back ({error}), skipped")
             return None
+        grids = [g for g in grids if g.name in grid_names and _usable(g, warnings, label)]
+        boxes = _shared_boxes(grids)
         for grid in grids:
-            if grid.name not in grid_names:
-                continue
-            dense = _dense_copy(grid, warnings, label)
+            dense = _dense_copy(grid, warnings, label, boxes[grid.name])
             if dense is not None:
                 dense.index_to_world = object_to_world @ dense.index_to_world
                 exported.grids[grid.name] = dense
@@ -198,7 +235,8 @@ def export_volume_objects(depsgraph, warnings: list, temp_dir: Optional[str] = N
             continue
         key = obj.data.as_pointer()
         if key not in read:
-            read[key] = export_volume_object(obj, warnings, temp_dir)
+            names = set(STANDARD_GRIDS) | material_grid_names(obj.active_material)
+            read[key] = export_volume_object(obj, warnings, temp_dir, grid_names=tuple(sorted(names)))
         source = read[key]
         if source is None:
             continue
@@ -224,9 +262,35 @@ def _shift(origin) -> np.ndarray:
 PRINCIPLED_DEFAULTS = {
     "Color": (0.5, 0.5, 0.5), "Color Attribute": "", "Density": 1.0, "Density Attribute": "density",
     "Anisotropy": 0.0, "Absorption Color": (0.0, 0.0, 0.0), "Emission Strength": 0.0,
-    "Emission Color": (1.0, 1.0, 1.0), "Blackbody Intensity": 0.0, "Temperature": 1000.0,
-    "Temperature Attribute": "temperature",
+    "Emission Color": (1.0, 1.0, 1.0), "Blackbody Intensity": 0.0, "Blackbody Tint": (1.0, 1.0, 1.0),
+    "Temperature": 1000.0, "Temperature Attribute": "temperature",
+    # Not a socket: the grid an Attribute node feeds into Emission Strength (e.g. 'flame'), or "".
+    "Emission Strength Attribute": "",
 }
+
+
+def _attribute_source(socket) -> str:
+    """Name of the grid attribute a socket reads through a (Geometry) Attribute node's Fac/Color
+    output, following reroutes; "" if it is driven by anything else."""
+    link = socket.links[0] if socket.links else None
+    while link is not None and link.from_node.bl_idname == "NodeReroute" and link.from_node.inputs[0].links:
+        link = link.from_node.inputs[0].links[0]
+    if link is None or link.is_muted or link.from_node.mute:
+        return ""
+    node = link.from_node
+    if (node.bl_idname == "ShaderNodeAttribute" and node.attribute_type == "GEOMETRY"
+            and link.from_socket.identifier in ("Fac", "Color")):  # names differ by version (Fac/Factor)
+        return node.attribute_name
+    return ""
+
+
+def material_grid_names(material) -> set:
+    """Grid names a material's Principled Volume reads (attribute sockets and Attribute nodes)."""
+    inputs = principled_volume_inputs(material, [], "")
+    names = {inputs["Density Attribute"], inputs["Color Attribute"], inputs["Emission Strength Attribute"]}
+    if inputs["Blackbody Intensity"] > 0:
+        names.add(inputs["Temperature Attribute"])
+    return {name for name in names if name}
 
 
 def principled_volume_inputs(material, warnings: list, label: str) -> dict:
@@ -254,6 +318,10 @@ def principled_volume_inputs(material, warnings: list, label: str) -> dict:
     for socket in node.inputs:
         if socket.name not in values:
             continue
+        if socket.name == "Emission Strength" and socket.is_linked and _attribute_source(socket):
+            # Cycles evaluates the Attribute node per lookup: strength = the grid's value.
+            values["Emission Strength Attribute"] = _attribute_source(socket)
+            continue
         if socket.is_linked:
             warnings.append(f"{label}: '{socket.name}' input is driven by nodes, which are not evaluated; "
                             "its own value is used")
@@ -273,9 +341,49 @@ def grid_medium_from_volume(exported: ExportedVolume, warnings: list, **medium_k
     if density is None or density.data.ndim != 3:
         warnings.append(f"{label}: density attribute grid '{density_name}' missing or not a float grid; skipped")
         return None
+    factor = exported.density_factor  # Cycles' weight: mix weight (1) x object volume density
+    emission_color = np.asarray(inputs["Emission Color"], float)
+    emission = max(inputs["Emission Strength"], 0.0) * factor * emission_color  # `if (emission > 0)`
+    emission_grid = None
+
+    def aligned_float_grid(name, what):
+        grid = exported.grids.get(name)
+        if grid is None:
+            return None
+        if grid.data.ndim != 3:
+            warnings.append(f"{label}: {what} grid '{name}' is not a float grid; ignored")
+        elif grid.data.shape != density.data.shape or not np.allclose(grid.index_to_world, density.index_to_world):
+            warnings.append(f"{label}: {what} grid '{name}' is not on the density grid's voxels; ignored")
+        else:
+            return grid.data
+        return None
+
+    flame_name = inputs["Emission Strength Attribute"]
+    if flame_name:
+        # Emission Strength = the attribute (e.g. 'flame'); per voxel max(value, 0) x Emission Color.
+        emission = np.zeros(3)
+        flame = aligned_float_grid(flame_name, "emission strength")
+        if flame is None and flame_name not in exported.grids:
+            warnings.append(f"{label}: emission strength attribute '{flame_name}' has no grid: no emission (as Cycles)")
+        if flame is not None:
+            emission_grid = (np.maximum(flame, 0.0)[..., None] * (factor * emission_color)).astype(np.float32)
+
     if inputs["Blackbody Intensity"] > 0:
-        warnings.append(f"{label}: blackbody emission (temperature grids) is not supported yet and is ignored")
-    emission = inputs["Emission Strength"] * exported.density_factor * np.asarray(inputs["Emission Color"], float)
+        # kernel/svm/closure.h: T = Temperature x max(temperature attribute, 0) when the grid exists,
+        # else Temperature; emission = tint x sigma/pi x mix(1, T^4, intensity) x blackbody(T).
+        # Per voxel, then interpolated: the expectation of Cycles' stochastic attribute lookup.
+        temperature = aligned_float_grid(inputs["Temperature Attribute"], "temperature")
+        if temperature is not None:
+            voxel_emission = factor * blackbody_emission(
+                inputs["Temperature"] * np.maximum(temperature, 0.0), inputs["Blackbody Intensity"],
+                inputs["Blackbody Tint"])
+            emission_grid = voxel_emission if emission_grid is None else emission_grid + voxel_emission
+            emission_grid = emission_grid.astype(np.float32)
+            # Outside the temperature grid's voxels T = 0 and Cycles emits sigma/pi x (1 - intensity)
+            # x blackbody(0 K): below 1e-14, left out.
+        else:
+            emission = emission + factor * blackbody_emission(
+                inputs["Temperature"], inputs["Blackbody Intensity"], inputs["Blackbody Tint"])
 
     color_grid = None
     color_name = inputs["Color Attribute"]
@@ -288,7 +396,7 @@ def grid_medium_from_volume(exported: ExportedVolume, warnings: list, **medium_k
         else:
             color_grid = color.data
 
-    common = dict(g=inputs["Anisotropy"], emission=emission, **medium_kwargs)
+    common = dict(g=inputs["Anisotropy"], emission=emission, emission_grid=emission_grid, **medium_kwargs)
     if color_grid is not None:
         return GridMedium.with_color_grid(
             exported.object_name, density.data, color_grid, density.index_to_world, color=inputs["Color"],

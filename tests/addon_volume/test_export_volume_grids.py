@@ -248,6 +248,12 @@ def test_absorbing_emitting_volume_matches_cycles(openvdb, tmp_path, clean_scene
     medium = evg.grid_medium_from_volume(exported, warnings)
     assert medium is not None and not warnings, warnings
 
+    assert_cycles_image_matches(obj, medium, tmp_path)
+
+
+def assert_cycles_image_matches(obj, medium, tmp_path, min_absorbed=0.8, min_emitted=0.1):
+    """Render `obj` alone with Cycles (orthographic, looking down -Z, white world) and z-test the
+    image against the deterministic quadrature of `medium` (see the absorbing/emitting test)."""
     scene = bpy.context.scene
     world = bpy.data.worlds.new("White")
     world.use_nodes = True
@@ -293,7 +299,7 @@ def test_absorbing_emitting_volume_matches_cycles(openvdb, tmp_path, clean_scene
     dirs = np.tile([0.0, 0.0, -1.0], (size * size, 1))
     transmittance, emitted = transmittance_and_emission(medium, origins, dirs)
     reference = (transmittance + emitted).reshape(size, size, 3)
-    assert transmittance.min() < 0.2 and emitted.max() > 0.1  # strong enough to test something
+    assert transmittance.min() < 1.0 - min_absorbed and emitted.max() > min_emitted  # strong enough to test something
 
     mean = 0.5 * (first + second)
     variance_of_mean = 0.25 * (first - second) ** 2  # unbiased per-pixel variance of `mean`
@@ -307,6 +313,7 @@ def test_absorbing_emitting_volume_matches_cycles(openvdb, tmp_path, clean_scene
     # Outside the volume bounds Cycles must show the plain background (catches shifted bounds).
     clear = (transmittance.reshape(size, size, 3).min(axis=2) > 0.9999) & (emitted.reshape(size, size, 3).max(axis=2) == 0)
     assert np.all(np.abs(mean[clear] - 1.0) < 1e-3), np.argwhere(clear & np.any(np.abs(mean - 1) >= 1e-3, axis=2))
+
 
 
 def test_collection_instances_get_their_own_transform(openvdb, tmp_path, clean_scene):
@@ -477,3 +484,78 @@ def test_geometry_nodes_mesh_to_volume_is_exported(clean_scene):
         bpy.data.objects.remove(obj)
         bpy.data.meshes.remove(mesh)
         bpy.data.node_groups.remove(tree)
+
+
+def fire_volume(openvdb, tmp_path, temperature_name="temperature", flame=False):
+    """A blob of smoke (absorbing) with a temperature grid (a ramp, ~700..2600 K with Temperature
+    1000) and optionally a flame grid, on a rotated, scaled Volume object. The temperature and
+    flame grids cover a different (larger) box than the density: they must still align."""
+    x, y, z = np.meshgrid(*[np.linspace(-1, 1, n) for n in (16, 14, 12)], indexing="ij")
+    density = np.clip(1 - (x ** 2 + y ** 2 + z ** 2), 0, None) * 1.5
+    density = np.where(density > 0.05, density, 0.0).astype(np.float32)
+    temperature = (0.7 + 0.95 * (x + 1)).astype(np.float32)  # every voxel active: a larger box
+    grids = [float_grid(openvdb, "density", density), float_grid(openvdb, temperature_name, temperature)]
+    if flame:
+        grids.append(float_grid(openvdb, "flame", np.clip(1.0 - np.hypot(y, z), 0.0, None).astype(np.float32) * 3.0))
+    path = write_vdb(openvdb, tmp_path / "fire.vdb", grids)
+    obj = volume_object(path, location=(0.1, -0.2, 0.0), rotation=(0.3, 0.2, 0.5), scale=(2.0, 1.2, 1.5))
+    obj.data.render.precision = "FULL"
+    material = principled_material(density=0.8, color=(0.0, 0.0, 0.0, 1.0))
+    principled = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeVolumePrincipled")
+    principled.inputs["Blackbody Intensity"].default_value = 1.0
+    principled.inputs["Blackbody Tint"].default_value = (1.0, 0.8, 0.9, 1.0)
+    principled.inputs["Temperature"].default_value = 1000.0
+    principled.inputs["Temperature Attribute"].default_value = temperature_name
+    if flame:  # Emission Strength <- Attribute 'flame' (Fac), Emission Color orange
+        attribute = material.node_tree.nodes.new("ShaderNodeAttribute")
+        attribute.attribute_name = "flame"
+        material.node_tree.links.new(attribute.outputs["Fac"], principled.inputs["Emission Strength"])
+        principled.inputs["Emission Color"].default_value = (1.0, 0.4, 0.1, 1.0)
+    obj.data.materials.append(material)
+    return obj
+
+
+def test_blackbody_temperature_grid_matches_closed_form(openvdb, tmp_path, clean_scene):
+    """Per voxel: sigma/pi x T^4 x tint x blackbody(T), T = Temperature x temperature attribute,
+    scaled by the object density factor (kernel/svm/closure.h); interpolated trilinearly."""
+    from volpath_native.grid_medium import BLACKBODY_SIGMA, blackbody_rec709
+
+    obj = fire_volume(openvdb, tmp_path)
+    warnings = []
+    exported = evg.export_volume_object(evaluated(obj)[0], warnings)
+    medium = evg.grid_medium_from_volume(exported, warnings)
+    assert medium is not None and not warnings, warnings
+    density, temperature = exported.grids["density"], exported.grids["temperature"]
+    assert density.data.shape == temperature.data.shape == (16, 14, 12)  # aligned on the union box
+    voxel = (12, 7, 5)
+    t = 1000.0 * temperature.data[voxel]
+    expected = exported.density_factor * BLACKBODY_SIGMA * t ** 4 * np.array([1.0, 0.8, 0.9]) * blackbody_rec709(t)
+    world = (density.index_to_world @ np.append(voxel, 1.0))[:3]
+    _, _, emission = medium.coefficients(world[None])
+    np.testing.assert_allclose(emission[0], expected, rtol=1e-5)
+    assert medium.emission.tolist() == [0.0, 0.0, 0.0]  # the grid carries it all
+
+
+def test_blackbody_without_temperature_grid_uses_constant_temperature(openvdb, tmp_path, clean_scene):
+    from volpath_native.grid_medium import blackbody_emission
+
+    obj = fire_volume(openvdb, tmp_path, temperature_name="heat_not_read")
+    obj.active_material.node_tree.nodes["Principled Volume"].inputs["Temperature Attribute"].default_value = "missing"
+    warnings = []
+    exported = evg.export_volume_object(evaluated(obj)[0], warnings)
+    medium = evg.grid_medium_from_volume(exported, warnings)
+    assert medium is not None and medium.emission_grid is None
+    np.testing.assert_allclose(medium.emission, exported.density_factor * blackbody_emission(1000.0, 1.0, (1.0, 0.8, 0.9)))
+
+
+@pytest.mark.parametrize("flame", [False, True], ids=["blackbody", "blackbody+flame"])
+def test_fire_volume_matches_cycles(openvdb, tmp_path, clean_scene, flame):
+    """Blackbody from a temperature grid (and flame emission via an Attribute node) on an
+    absorbing blob, rendered by Cycles and z-tested against the exported medium's quadrature."""
+    obj = fire_volume(openvdb, tmp_path, flame=flame)
+    warnings = []
+    exported = evg.export_volume_object(evaluated(obj)[0], warnings)
+    medium = evg.grid_medium_from_volume(exported, warnings)
+    assert medium is not None and not warnings, warnings
+    assert (medium.emission_grid is not None) and medium.emission_grid.max() > 0.05
+    assert_cycles_image_matches(obj, medium, tmp_path, min_absorbed=0.5, min_emitted=0.3)
