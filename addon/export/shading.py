@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import volpath_native as vp
+from volpath_native.grid_medium import blackbody_emission
 
 from .. import compat
 
@@ -219,9 +220,13 @@ def _volume_from(reader: NodeReader, socket) -> _Volume:
         absorption_color = np.maximum(np.sqrt(np.maximum(reader.rgb(node, "Absorption Color"), 0.0)), 0.0)
         sigma_s = color * density
         sigma_a = density * np.maximum(1.0 - color, 0.0) * np.maximum(1.0 - absorption_color, 0.0)
-        emission = reader.scalar(node, "Emission Strength") * reader.rgb(node, "Emission Color")
-        if reader.scalar(node, "Blackbody Intensity") > 0.0:
-            reader.warn(node, "blackbody emission is not supported; ignored")
+        # `if (emission > 0)`: a negative strength emits nothing.
+        emission = max(reader.scalar(node, "Emission Strength"), 0.0) * reader.rgb(node, "Emission Color")
+        # Blackbody: tint x sigma/pi x mix(1, T^4, intensity) x blackbody(T) (same closure.h function;
+        # a mesh has no temperature attribute, so T = Temperature).
+        emission = emission + blackbody_emission(reader.scalar(node, "Temperature"),
+                                                  reader.scalar(node, "Blackbody Intensity"),
+                                                  reader.rgb(node, "Blackbody Tint"))
         for attribute in ("Density Attribute", "Color Attribute", "Temperature Attribute"):
             socket_attr = node.inputs.get(attribute)
             if socket_attr is not None and socket_attr.is_linked:
