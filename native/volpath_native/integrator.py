@@ -312,33 +312,35 @@ class Integrator:
         st = self.settings
         prim = hits.prim[s]
         t = hits.t[s]
-        p = S.o[s] + S.d[s] * t[:, None]
+        d_s = S.d[s]
         ng = accel.normals[prim]
-        cos_in = _dot(S.d[s], ng)
-        front = cos_in < 0
+        front = _dot(d_s, ng) < 0
         cont = np.ones(len(s), bool)
         eps = accel.epsilon
 
         # null boundary: cross it, update the volume stack, keep the direction
         null = self.tri_null[prim]
-        if null.any():
-            a = s[null]
+        k = np.nonzero(null)[0]
+        if len(k):
+            a = s[k]
             sub = S.counts[a]
-            self.media.cross(sub, prim[null], front[null])
+            self.media.cross(sub, prim[k], front[k])
             S.counts[a] = sub
             if self.media.any_medium:
                 S.m_ss[a], S.m_st[a], S.m_em[a], S.m_g[a] = self.media.coefficients(sub)
-            S.o[a] = p[null] + S.d[a] * eps
+            step = t[k] + eps
+            S.o[a] += d_s[k] * step[:, None]
             S.lead[a] = eps
-            S.travelled[a] += t[null] + eps
-            S.tmax[a] = S.tmax[a] - t[null] - eps
+            S.travelled[a] += step
+            S.tmax[a] -= step
             S.bounds[a] += 1
-            cont[null] = S.bounds[a] <= MAX_VOLUME_BOUNDS
-        opaque = ~null
-        if not opaque.any():
+            cont[k] = S.bounds[a] <= MAX_VOLUME_BOUNDS
+        if len(k) == len(s):
             return cont
+        opaque = np.nonzero(~null)[0]  # integer gathers are faster than boolean masks
         b = s[opaque]
-        pb, primb, ngb, frontb = p[opaque], prim[opaque], ng[opaque], front[opaque]
+        primb, ngb, frontb = prim[opaque], ng[opaque], front[opaque]
+        pb = S.o[b] + d_s[opaque] * t[opaque][:, None]
         ctx.stats["vertices"] += len(b)
 
         # emission (two-sided by default), MIS against the light-sampling pdf

@@ -132,13 +132,20 @@ class MediaTable:
     def cross(self, counts: np.ndarray, prim: np.ndarray, front: np.ndarray) -> None:
         """Update counters in place for null-boundary crossings of triangles prim."""
         vol = self.tri_volume[prim]
-        m = vol >= 0
-        if not m.any():
+        idx = np.nonzero(vol >= 0)[0]
+        if not len(idx):
             return
-        idx = np.nonzero(m)[0]
-        step = np.where(front[idx], 1, -1).astype(np.int16)
-        new = counts[idx, vol[idx]].astype(np.int16) + step
-        counts[idx, vol[idx]] = np.clip(new, 0, 127).astype(np.int8)
+        if not counts.flags.c_contiguous:
+            step = np.where(front[idx], 1, -1).astype(np.int16)
+            counts[idx, vol[idx]] = np.clip(counts[idx, vol[idx]].astype(np.int16) + step, 0, 127)
+            return
+        # one flat index per crossing into the (N, V) counters (2-D fancy indexing is slower)
+        flat_counts = counts.reshape(-1)
+        flat = idx * counts.shape[1] + vol[idx]
+        new = flat_counts[flat].astype(np.int16)
+        new += np.where(front[idx], 1, -1).astype(np.int16)
+        np.clip(new, 0, 127, out=new)
+        flat_counts[flat] = new
 
     def stack_at(self, points: np.ndarray, max_crossings: int = 256) -> np.ndarray:
         """Volume-stack counters for arbitrary points, by walking a ray to infinity and counting
