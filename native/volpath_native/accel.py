@@ -91,10 +91,11 @@ class Accelerator:
                         np.zeros(n, np.float32))
         o = np.ascontiguousarray(origins, dtype=np.float32)
         d = np.ascontiguousarray(directions, dtype=np.float32)
-        dists = None if tmax is None else np.ascontiguousarray(np.minimum(tmax, 1e30), dtype=np.float32)
+        dists = None if tmax is None else np.minimum(tmax, 1e30).astype(np.float32)
         res = self._embree.run(o, d, dists=dists, output=1)
-        prim = res["primID"].astype(np.int32)
-        t = np.where(prim >= 0, res["tfar"].astype(np.float64), np.inf)
+        prim = res["primID"].astype(np.int32, copy=False)
+        t = res["tfar"].astype(np.float64)
+        t[prim < 0] = np.inf
         return Hits(t, prim, res["u"], res["v"])
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, tmax: np.ndarray) -> np.ndarray:
@@ -104,7 +105,7 @@ class Accelerator:
             return np.zeros(n, dtype=bool)
         o = np.ascontiguousarray(origins, dtype=np.float32)
         d = np.ascontiguousarray(directions, dtype=np.float32)
-        dists = np.ascontiguousarray(np.minimum(tmax, 1e30), dtype=np.float32)
+        dists = np.minimum(tmax, 1e30).astype(np.float32)
         return self._embree.run(o, d, dists=dists, query="OCCLUDED") >= 0
 
     def shading_normals(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -190,7 +190,7 @@ class LightSet:
         n = len(rows)
         if self.single_kind is not None:  # common case: no per-kind split and scatter
             wi, dist, value, pdf = getattr(self, _SAMPLERS[self.single_kind])(rows, p, u1, u2)
-            value = np.array(value, dtype=np.float64)  # own, writable copy (may be a broadcast)
+            value = np.require(value, np.float64, ["W"])  # divided in place below
         else:
             wi = np.zeros((n, 3))
             wi[:, 2] = 1.0
