@@ -154,6 +154,11 @@ def main(argv=None) -> int:
         print(f"equal render time ({args.seconds:.0f} s each), relMSE vs reference: VolPath {err_v:.4g}, Cycles "
               f"{err_c:.4g} (raw {raw_v:.4g} / {raw_c:.4g}, reference noise ~{reference_share:.3g}); "
               f"VolPath/Cycles = {err_v / err_c:.3g}")
+        # Cycles' cost per sample drifts between runs, so its equal-time run may miss the budget; for
+        # unbiased Monte Carlo relMSE x time is constant: compare that (lower = more efficient).
+        cost_v, cost_c = err_v * volpath_run.render_seconds, err_c * cycles_run.render_seconds
+        print(f"relMSE x render seconds: VolPath {cost_v:.4g}, Cycles {cost_c:.4g}; VolPath needs "
+              f"{cost_v / cost_c:.3g}x Cycles' time for the same error")
         means_v = metrics.rgb(volpath_run.image).mean(axis=(0, 1))
         means_r = metrics.rgb(reference.image).mean(axis=(0, 1))
         print("image mean ratio VolPath/reference R/G/B: " + " ".join(f"{a / b:.4f}" for a, b in zip(means_v, means_r)))
