@@ -35,7 +35,7 @@ from .camera import CameraModel, crop_window
 from .film import PixelFilter
 from .lights import LightSet
 from .phase import hg_eval, hg_sample
-from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, path_keys, uniform
+from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, path_keys, uniform, uniform_block
 from .scene import Scene
 from .vec import any_positive, dot as _dot, max3, sum3
 
@@ -163,6 +163,11 @@ class Integrator:
         dimension = CAMERA_DIMS + S.iteration * DIMS_PER_EVENT + offset
         return uniform(S.key if idx is None else S.key[idx], dimension)
 
+    def _us(self, S, offsets, idx):
+        """Several dimensions for the same paths in one pass (rows identical to _u's)."""
+        base = CAMERA_DIMS + S.iteration * DIMS_PER_EVENT
+        return uniform_block(S.key[idx], [base + k for k in offsets])
+
     # -----------------------------------------------------------------------------------------
     def _iteration(self, S: PathState, L: np.ndarray, ctx: "_BatchContext") -> PathState:
         st = self.settings
@@ -206,7 +211,7 @@ class Integrator:
             if len(samp):
                 p = md.channel_probabilities(S.beta[samp], sig_s[samp], sig_t[samp])
                 survive_p[samp] = p
-                ts = md.sample_distance(sig_t[samp], p, self._u(S, D_CHANNEL, samp), self._u(S, D_DISTANCE, samp))
+                ts = md.sample_distance(sig_t[samp], p, *self._us(S, (D_CHANNEL, D_DISTANCE), samp))
                 sc = ts < t_seg[samp]
                 t_scatter[samp[sc]] = ts[sc]
                 scatter[samp[sc]] = True
@@ -271,7 +276,7 @@ class Integrator:
         if len(v):
             ctx.stats["vertices"] += len(v)
             x = S.o[v] + S.d[v] * t_scatter[v][:, None]
-            wo, pdf = hg_sample(S.d[v], phase_g[v], self._u(S, D_PHASE_U, v), self._u(S, D_PHASE_V, v))
+            wo, pdf = hg_sample(S.d[v], phase_g[v], *self._us(S, (D_PHASE_U, D_PHASE_V), v))
             gv = np.nonzero(in_grid[v])[0]
             if len(gv):
                 # MIS needs the pdf of the whole phase mixture at x (same function as grid NEE)
@@ -365,8 +370,9 @@ class Integrator:
         else:
             ns = n_face
         if len(i) and self.lights.count:
-            rows = self.lights.select(self._u(S, D_SURF_SELECT, bi))
-            ls = self.lights.sample(rows, origin, self._u(S, D_SURF_LU, bi), self._u(S, D_SURF_LV, bi))
+            u_select, u_light1, u_light2 = self._us(S, (D_SURF_SELECT, D_SURF_LU, D_SURF_LV), bi)
+            rows = self.lights.select(u_select)
+            ls = self.lights.sample(rows, origin, u_light1, u_light2)
             f, bsdf_pdf = lambert_eval(albedo, ns, ls.wi)
             above = _dot(ls.wi, n_face) > 0
             w = np.where(ls.pdf > 0, _power_heuristic(ls.pdf, bsdf_pdf), 1.0)
@@ -377,7 +383,7 @@ class Integrator:
                                   S.m_st[bi[nz]] if S.m_st is not None else None)
                 L[S.pid[bi[nz]]] += contrib[nz] * tr
         # continue with a cosine-sampled direction
-        wi, weight, pdf = lambert_sample(albedo, ns, self._u(S, D_BSDF_U, bi), self._u(S, D_BSDF_V, bi))
+        wi, weight, pdf = lambert_sample(albedo, ns, *self._us(S, (D_BSDF_U, D_BSDF_V), bi))
         ok = _dot(wi, n_face) > 0  # smooth normals may point below the geometric surface
         S.o[bi], S.d[bi] = origin, wi
         S.beta[bi] = S.beta[bi] * weight * ok[:, None]
@@ -398,7 +404,9 @@ class Integrator:
         lights = self.lights
         mode = self.settings.volume_sampling
         o, d, beta = S.o[i], S.d[i], S.beta[i]
-        rows = lights.select(self._u(S, D_MED_SELECT, i))
+        u_select, u_t, u_channel, u_tech, u_light1, u_light2 = self._us(
+            S, (D_MED_SELECT, D_MED_T, D_MED_CHANNEL, D_MED_TECH, D_MED_LU, D_MED_LV), i)
+        rows = lights.select(u_select)
         positional = lights.has_position(rows)
         valid = (sig_t > 0) | np.isfinite(t_end)[:, None]
         p = md.channel_probabilities(beta, sig_s, sig_t, valid)
@@ -411,17 +419,16 @@ class Integrator:
         prob_eq = np.where(~can_equi & ~can_distance, 0.0, prob_eq)
         usable = can_equi | can_distance
         setup = md.equiangular_setup(o, d, t_end, lights.position[rows])
-        u_t = self._u(S, D_MED_T, i)
         t_eq, _ = md.equiangular_sample(setup, u_t)
-        t_di = md.sample_distance_truncated(sig_t, p, self._u(S, D_MED_CHANNEL, i), u_t, t_end)
-        use_eq = self._u(S, D_MED_TECH, i) < prob_eq
+        t_di = md.sample_distance_truncated(sig_t, p, u_channel, u_t, t_end)
+        use_eq = u_tech < prob_eq
         t = np.where(use_eq, t_eq, t_di)
         t = np.where(np.isfinite(t), t, 0.0)
         pdf_t = prob_eq * md.equiangular_pdf(setup, t) + \
             (1.0 - prob_eq) * np.where(can_distance, md.truncated_distance_pdf(sig_t, p, t, t_end), 0.0)
         good = usable & (pdf_t > 0) & np.isfinite(pdf_t)
         x = o + d * t[:, None]
-        ls = lights.sample(rows, x, self._u(S, D_MED_LU, i), self._u(S, D_MED_LV, i))
+        ls = lights.sample(rows, x, u_light1, u_light2)
         phase = hg_eval(g, _dot(d, ls.wi))
         w = np.where(ls.pdf > 0, _power_heuristic(ls.pdf, phase), 1.0)
         scale = np.where(good, w / np.where(good, pdf_t, 1.0), 0.0)
