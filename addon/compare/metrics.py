@@ -202,6 +202,7 @@ class MeanTest:
     standard_error_a: np.ndarray
     standard_error_b: np.ndarray
     p_values: np.ndarray
+    degrees_of_freedom: np.ndarray  # Welch-Satterthwaite, per channel
     alpha: float
     alpha_per_test: float
 
@@ -212,9 +213,10 @@ class MeanTest:
 
     @property
     def ratio_tolerance(self) -> np.ndarray:
-        """Half-width of the ratio's interval at the Sidak-corrected level (delta method): the
-        tolerance the noise allows, reported next to the ratio."""
-        z = _normal_quantile_two_sided(self.alpha_per_test)
+        """Half-width of the ratio's interval at the Sidak-corrected level (delta method, with the
+        same Student t quantile as the test): the tolerance the noise allows, reported next to the
+        ratio, so a ratio inside it is exactly a passing test."""
+        z = _student_t_quantile_two_sided(self.alpha_per_test, self.degrees_of_freedom)
         with np.errstate(divide="ignore", invalid="ignore"):
             relative = np.sqrt((self.standard_error_a / self.means_a) ** 2
                                + (self.standard_error_b / self.means_b) ** 2)
@@ -240,19 +242,19 @@ def mean_test(a: RunStatistics, b: RunStatistics, alpha: float = 0.01) -> MeanTe
     rounding = (FLOAT32_RELATIVE_NOISE * np.maximum(np.abs(a.channel_means), np.abs(b.channel_means))) ** 2
     t = (a.channel_means - b.channel_means) / np.sqrt(np.maximum(variance, np.maximum(rounding, 1e-300)))
     return MeanTest(means_a=a.channel_means, means_b=b.channel_means, standard_error_a=se_a,
-                    standard_error_b=se_b, p_values=student_t_two_sided_p(t, dof), alpha=alpha,
+                    standard_error_b=se_b, p_values=student_t_two_sided_p(t, dof),
+                    degrees_of_freedom=np.floor(dof), alpha=alpha,
                     alpha_per_test=sidak_alpha(alpha, 3))
 
 
-def _normal_quantile_two_sided(p: float) -> float:
-    """z with P(|Z| > z) = p, by bisection on math.erfc (exact enough for reporting)."""
-    lo, hi = 0.0, 40.0
+def _student_t_quantile_two_sided(p: float, dof) -> np.ndarray:
+    """t with P(|T| > t) = p for each entry of `dof`, by bisection on student_t_two_sided_p."""
+    dof = np.asarray(dof, dtype=np.float64)
+    lo, hi = np.zeros_like(dof), np.full_like(dof, 1e4)
     for _ in range(100):
         mid = 0.5 * (lo + hi)
-        if math.erfc(mid / math.sqrt(2.0)) > p:
-            lo = mid
-        else:
-            hi = mid
+        above = student_t_two_sided_p(mid, dof) > p
+        lo, hi = np.where(above, mid, lo), np.where(above, hi, mid)
     return 0.5 * (lo + hi)
 
 
