@@ -194,23 +194,26 @@ class Integrator:
             j = np.nonzero(in_med & (S.lead > 0))[0]
             S.beta[j] = S.beta[j] * md.transmittance(sig_t[j], S.lead[j])
         S.lead[:] = 0.0
-        beta_in = S.beta.copy()
+        lamps = len(self.lights.hittable_rows) > 0
+        # throughput at the segment start: only lamp hits and grid emission look back at it
+        beta_in = S.beta.copy() if lamps or self.media.has_grids else None
         if in_med.any():
             i = np.nonzero(in_med & (max3(emis) > 0))[0]
             if len(i):
                 L[S.pid[i]] += S.beta[i] * md.emission_integral(emis[i], sig_t[i], t_seg[i])
-            i = np.nonzero(in_med & ~S.tat & (max3(sig_s) > 0) & ~in_grid)[0]
-            if len(i) and self.lights.count:
-                self._medium_nee(S, i, L, sig_s[i], sig_t[i], g[i], t_seg[i], ctx)
+            # homogeneous scattering segments: next-event estimation, then free-flight sampling
+            samp = np.nonzero(in_med & ~S.tat & (max3(sig_s) > 0) & ~in_grid)[0]
+            if len(samp) and self.lights.count:
+                self._medium_nee(S, samp, L, sig_s[samp], sig_t[samp], g[samp], t_seg[samp], ctx)
             i = np.nonzero(in_grid & ~S.tat)[0]
             if len(i) and self.lights.count:
                 self._grid_nee(S, i, L, sig_s[i], sig_t[i], g[i], t_seg[i], ctx)
             # continuation: free-flight sampling, or plain attenuation when scattering is over
-            samp = np.nonzero(in_med & ~S.tat & (max3(sig_s) > 0) & ~in_grid)[0]
-            survive_p = np.zeros((n, 3))
+            survive_p = np.zeros((n, 3)) if lamps else None
             if len(samp):
                 p = md.channel_probabilities(S.beta[samp], sig_s[samp], sig_t[samp])
-                survive_p[samp] = p
+                if survive_p is not None:
+                    survive_p[samp] = p
                 ts = md.sample_distance(sig_t[samp], p, *self._us(S, (D_CHANNEL, D_DISTANCE), samp))
                 sc = ts < t_seg[samp]
                 t_scatter[samp[sc]] = ts[sc]
