@@ -13,6 +13,13 @@ flame align voxel for voxel); its index->world transform is the grid's own linea
 object's matrix_world, as Cycles does (intern/cycles/scene/image_vdb.cpp: index_to_object from the
 grid's affine map; object transform applied on top).
 
+Material (Cycles' Principled Volume, kernel/svm/closure.h): Density x the density attribute grid,
+Color x the colour grid, the object's density factor (scene/object.cpp), Emission Strength x Emission
+Color (or, when an Attribute node feeds Emission Strength, that grid per voxel: Blender's flame setup),
+and blackbody emission from Temperature x the temperature grid (or the constant Temperature when the
+grid is absent), computed per voxel and interpolated like Cycles' stochastic lookups. Other node
+setups: a warning and the socket values / defaults.
+
 Bad input never raises into Blender: a missing file, an unsupported grid type, an empty grid, a
 non-linear (frustum) transform or a grid too large for dense storage produce a warning string and
 the grid (or the whole object, when its density grid is unusable) is skipped.
