@@ -140,18 +140,36 @@ def gil_probe(scene: Scene, batch: int) -> dict:
     return dict(alone=alone, embree=with_embree / alone, render=with_render / alone)
 
 
-def cpu_paths_per_second(scene: Scene, batch: int, repeats: int = 3) -> float:
-    """Paths per second of CPU time of one thread on one batch (best of `repeats`): insensitive to
-    other processes competing for the cores, unlike wall-clock samples/s."""
+def cpu_time_efficiency(scene: Scene, batch: int, repeats: int = 3) -> dict:
+    """Paths and rays per second of CPU time of one thread on one batch (best of `repeats`), and
+    raw embreex per CPU second on the same geometry and batch: CPU time barely moves when other
+    processes compete for the cores, so this efficiency is comparable between runs, unlike the
+    wall-clock one."""
     from volpath_native.integrator import Integrator
     integrator = Integrator(scene)
     n = min(batch, 256 * 256)
-    best = np.inf
+    best, stats = np.inf, None
     for r in range(repeats):
         start = time.thread_time()
-        integrator.render_paths(np.arange(n), np.full(n, r, np.int64))
+        _, stats = integrator.render_paths(np.arange(n), np.full(n, r, np.int64))
         best = min(best, time.thread_time() - start)
-    return n / best
+    accel = integrator.accel
+    rng = np.random.default_rng(0)
+    o = rng.random((batch, 3)) * 5.4 + 0.05
+    d = rng.normal(size=(batch, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    tmax = np.full(batch, 3.0)
+    raw = {}
+    for name, fn in (("closest", lambda: accel.intersect(o, d)), ("occluded", lambda: accel.occluded(o, d, tmax))):
+        fn()
+        start = time.thread_time()
+        for _ in range(8):
+            fn()
+        raw[name] = 8 * batch / (time.thread_time() - start)
+    rays, shadow = stats["rays"], stats["shadow_rays"]
+    raw_mix = (rays + shadow) / (rays / raw["closest"] + shadow / raw["occluded"])
+    return dict(paths=n / best, rays=(rays + shadow) / best, raw_mix=raw_mix,
+                efficiency=(rays + shadow) / best / raw_mix)
 
 
 def run(spp: int, batch: int, profile: bool) -> None:
@@ -174,8 +192,10 @@ def run(spp: int, batch: int, profile: bool) -> None:
         print(f"             raw embreex: closest {raw['closest'] / 1e6:5.2f} M rays/s, occluded "
               f"{raw['occluded'] / 1e6:5.2f} M rays/s, same mix {raw_mix / 1e6:5.2f} M rays/s -> "
               f"tracing efficiency {st['rays_per_second'] / raw_mix:.3f}")
-    cpu_rate = cpu_paths_per_second(cornell_fog_scene(spp=1, threads=1, batch_size=batch), batch)
-    print(f"  1 thread, CPU time only: {cpu_rate / 1e3:.1f} k paths/s (one batch, best of 3)")
+    cpu = cpu_time_efficiency(cornell_fog_scene(spp=1, threads=1, batch_size=batch), batch)
+    print(f"  1 thread, CPU time only (load-insensitive): {cpu['paths'] / 1e3:.1f} k paths/s, "
+          f"{cpu['rays'] / 1e6:.2f} M rays/s vs raw embreex {cpu['raw_mix'] / 1e6:.2f} M rays/s (same mix) "
+          f"-> tracing efficiency {cpu['efficiency']:.3f}")
     gil = gil_probe(cornell_fog_scene(spp=1, threads=1, batch_size=batch), batch)
     print(f"  GIL probe: a second Python thread keeps {gil['embree']:.2f} of its solo speed during Embree "
           f"queries and {gil['render']:.2f} during render_paths -> render threads overlap "
