@@ -306,12 +306,15 @@ class Integrator:
 
     # -----------------------------------------------------------------------------------------
     def _russian_roulette(self, S, idx):
-        past = S.bounce[idx] > self.settings.russian_roulette_min_bounces
-        q = np.minimum(np.sqrt(max3(np.abs(S.beta[idx]))), 1.0)
-        u = self._u(S, D_RR, idx)
-        survive = ~past | (u < q)
-        scale = np.where(past & survive, 1.0 / np.maximum(q, 1e-30), 1.0)
-        S.beta[idx] *= scale[:, None]
+        survive = np.ones(len(idx), bool)
+        j = np.nonzero(S.bounce[idx] > self.settings.russian_roulette_min_bounces)[0]
+        if not len(j):  # early bounces: nothing to decide, no random numbers needed
+            return survive
+        r = idx[j]
+        q = np.minimum(np.sqrt(max3(np.abs(S.beta[r]))), 1.0)
+        survive[j] = self._u(S, D_RR, r) < q
+        # survivors are scaled by 1/q; the others end here, their throughput no longer matters
+        S.beta[r] *= np.where(survive[j], 1.0 / np.maximum(q, 1e-30), 1.0)[:, None]
         return survive
 
     def _surfaces(self, S, s, hits, L, ctx):
