@@ -34,7 +34,7 @@ from .bsdf import lambert_eval, lambert_sample
 from .camera import CameraModel, crop_window
 from .film import PixelFilter
 from .lights import LightSet
-from .phase import hg_eval, hg_sample
+from .phase import hg_eval, hg_mixture_sample, hg_sample
 from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, path_keys, uniform, uniform_block
 from .scene import Scene
 from .vec import any_positive, dot as _dot, max3, sum3
@@ -189,6 +189,8 @@ class Integrator:
         in_grid = self.media.inside_grid(S.counts) if self.media.has_grids else np.zeros(n, bool)
         in_med |= in_grid
         phase_g = g.copy() if self.media.any_medium else None
+        # which scattering events a grid caused (their phase is the grid's own HG)
+        grid_scattered = np.zeros(n, bool) if self.media.has_grids else None
         if in_med.any() and np.any(S.lead > 0):
             # the origin sits `lead` past the boundary it just crossed: attenuate that gap exactly
             j = np.nonzero(in_med & (S.lead > 0))[0]
@@ -231,7 +233,8 @@ class Integrator:
                 S.beta[att] = S.beta[att] * md.transmittance(sig_t[att], t_seg[att])
             G = np.nonzero(in_grid)[0]
             if len(G):
-                self._grid_segment(S, G, L, beta_in, sig_s[G], sig_t[G], t_seg[G], scatter, t_scatter, phase_g, ctx)
+                self._grid_segment(S, G, L, beta_in, sig_s[G], sig_t[G], t_seg[G], scatter, t_scatter, phase_g,
+                                   grid_scattered, ctx)
 
         self._poll_cancel()
         # ---- lamps crossed before the end of the segment (they do not block) -------------
@@ -279,13 +282,20 @@ class Integrator:
         if len(v):
             ctx.stats["vertices"] += len(v)
             x = S.o[v] + S.d[v] * t_scatter[v][:, None]
-            wo, pdf = hg_sample(S.d[v], phase_g[v], *self._us(S, (D_PHASE_U, D_PHASE_V), v))
+            u_phase, v_phase = self._us(S, (D_PHASE_U, D_PHASE_V), v)
+            wo, pdf = hg_sample(S.d[v], phase_g[v], u_phase, v_phase)
+            # beta *= phase / pdf == 1 for exactly sampled HG; overlapping media of different g
+            # need the mixture's value / pdf
+            if self.media.mixed_phase:
+                hom_event = np.ones(len(v), bool) if grid_scattered is None else ~grid_scattered[v]
+                mv = np.nonzero(hom_event & self.media.phase_is_mixed(S.counts[v]))[0]
+                if len(mv):
+                    wo[mv], pdf[mv] = self._sample_phase_mixture(S, v[mv], sig_s[v[mv]], u_phase[mv], v_phase[mv])
             gv = np.nonzero(in_grid[v])[0]
             if len(gv):
                 # MIS needs the pdf of the whole phase mixture at x (same function as grid NEE)
                 comps = self._scattering_components(x[gv], S.counts[v[gv]], sig_s[v[gv]], g[v[gv]])
                 _, pdf[gv] = _phase_mixture(comps, _dot(S.d[v[gv]], wo[gv]))
-            # beta *= phase / pdf == 1 for exactly sampled HG
             S.o[v], S.d[v], S.prev_pos[v], S.prev_pdf[v] = x, wo, x, pdf
             S.travelled[v] = 0.0
             S.tmax[v] = np.inf
@@ -435,10 +445,18 @@ class Integrator:
         good = usable & (pdf_t > 0) & np.isfinite(pdf_t)
         x = o + d * t[:, None]
         ls = lights.sample(rows, x, u_light1, u_light2)
-        phase = hg_eval(g, _dot(d, ls.wi))
+        cos_theta = _dot(d, ls.wi)
+        phase = hg_eval(g, cos_theta)  # the phase pdf (MIS) ...
+        scattering = sig_s * phase[:, None]  # ... and sigma_s x phase, per channel
+        if self.media.mixed_phase:
+            m = np.nonzero(self.media.phase_is_mixed(S.counts[i]))[0]
+            if len(m):
+                sigma_k, g_k = self.media.phase_components(S.counts[i[m]])
+                scattering[m], phase[m] = _phase_mixture(
+                    [(sigma_k[:, k], np.full(len(m), g_k[k])) for k in range(len(g_k))], cos_theta[m])
         w = np.where(ls.pdf > 0, _power_heuristic(ls.pdf, phase), 1.0)
         scale = np.where(good, w / np.where(good, pdf_t, 1.0), 0.0)
-        contrib = beta * md.transmittance(sig_t, t) * sig_s * (phase * scale)[:, None] * ls.value
+        contrib = beta * md.transmittance(sig_t, t) * scattering * scale[:, None] * ls.value
         nz = np.nonzero(any_positive(contrib))[0]
         if len(nz):
             tr = self._shadow(x[nz], ls.wi[nz], ls.dist[nz], S.counts[i[nz]], ctx, sig_t[nz])
@@ -509,9 +527,30 @@ class Integrator:
                 T[sub] *= grid.transmittance(origins[sub], dirs[sub], dist[sub], ctx.rng)
         return T
 
+    def _sample_phase_mixture(self, S, j, sig_s, u1, u2):
+        """Scattered directions at homogeneous events of paths j whose stack mixes media of
+        different g: component k picked with probability ~ mean sigma_s,k (as Cycles'
+        volume_shader_phase_pick, kernel/integrator/volume_shader.h), HG(g_k) sampled, and
+        beta *= f / (sigma_s pdf) with f_c = sum_k sigma_s,k,c HG_k and pdf = sum_k p_k HG_k (the
+        collision weight already holds sigma_s). Returns (wo, mixture pdf) for MIS."""
+        sigma_k, g_k = self.media.phase_components(S.counts[j])
+        weights = sigma_k.mean(axis=2)
+        total = weights.sum(axis=1)
+        probabilities = weights / np.where(total > 0, total, 1.0)[:, None]
+        wo, pdf, _ = hg_mixture_sample(S.d[j], probabilities, g_k, u1, u2)
+        hg = hg_eval(g_k[None, :], _dot(S.d[j], wo)[:, None])
+        f = np.einsum("mkc,mk->mc", sigma_k, hg)
+        ok = (sig_s > 0) & (pdf > 0)[:, None]
+        S.beta[j] *= np.where(ok, f / np.where(ok, sig_s * pdf[:, None], 1.0), 0.0)
+        return wo, pdf
+
     def _scattering_components(self, x, counts, sig_s_hom, g_hom):
         """[(sigma_s (M,3), g (M,))] of every medium scattering at points x."""
-        comps = [(sig_s_hom, g_hom)]
+        if self.media.mixed_phase:
+            sigma_k, g_k = self.media.phase_components(counts)
+            comps = [(sigma_k[:, k], np.full(len(x), g_k[k])) for k in range(len(g_k))]
+        else:
+            comps = [(sig_s_hom, g_hom)]
         for v, grid in self.media.grid_volumes:
             inside = counts[:, v] > 0
             if inside.any():
@@ -520,7 +559,8 @@ class Integrator:
                 comps.append((ss, np.full(len(x), grid.g)))
         return comps
 
-    def _grid_segment(self, S, G, L, beta_in, sig_s, sig_t, t_seg, scatter, t_scatter, phase_g, ctx):
+    def _grid_segment(self, S, G, L, beta_in, sig_s, sig_t, t_seg, scatter, t_scatter, phase_g, grid_scattered,
+                      ctx):
         """Free flight for paths G inside grid volumes (coefficient arrays are already [G])."""
         beta = S.beta[G]
         m = len(G)
@@ -571,6 +611,7 @@ class Integrator:
             scatter[gl[event]] = True
             t_scatter[gl[event]] = t_eval[event]
             phase_g[gl] = g_event
+            grid_scattered[gl[grid_event]] = True
         S.beta[G] = beta * weight
 
     def _grid_nee(self, S, i, L, sig_s, sig_t, g, t_end, ctx):
@@ -612,6 +653,8 @@ class Integrator:
 
 
 def _phase_mixture(components, cos_theta):
+    # Cycles: kernel/integrator/volume_shader.h _volume_shader_phase_eval_mis (value = sum of the
+    # closures' weighted evals, pdf = sample-weighted mean of their pdfs)
     """Sum of sigma_s * HG over components (RGB) and the mixture's pdf (weights: mean sigma_s)."""
     f = np.zeros((len(cos_theta), 3))
     num = np.zeros(len(cos_theta))

@@ -59,6 +59,7 @@ class MediaTable:
         self.accel = accel
         self.warnings: list[str] = []
         self._tables = self._build_tables()
+        self._init_phase_components()
         world_t = self.world_sigma_s + self.world_sigma_a
         if np.any((self.world_emission > 0) & (world_t <= 0)):
             self.warnings.append("world medium emits but does not attenuate: its emission would be "
@@ -125,9 +126,61 @@ class MediaTable:
             ws = inside * self.sigma_s.mean(axis=1)
             g_weight += ws.sum(axis=1)
             g_sum += ws @ self.g
-        # Overlapping media with different g are approximated by the sigma_s-weighted mean g.
+        # g is exact wherever one g scatters (the fast path); where media with different g
+        # overlap (phase_is_mixed) the integrator uses the exact mixture of phase_components and
+        # this sigma_s-weighted mean is only a placeholder.
         g = np.where(g_weight > 0, g_sum / np.where(g_weight > 0, g_weight, 1.0), 0.0)
         return sigma_s, sigma_s + sigma_a, emission, g
+
+    # ---- phase mixtures of overlapping homogeneous media --------------------------------------
+    def _init_phase_components(self):
+        """Group the scattering homogeneous media (world included) by g: one mixture component
+        per distinct g (Cycles merges volume closures of equal g the same way,
+        kernel/integrator/volume_shader.h volume_shader_merge_closures). mixed_phase is False when
+        at most one g scatters anywhere, and then the integrator never asks for components."""
+        scatters = [v for v in range(self.n_volumes) if not self.volume_is_grid[v] and np.any(self.sigma_s[v] > 0)]
+        world_scatters = bool(np.any(self.world_sigma_s > 0))
+        values = {float(self.g[v]) for v in scatters} | ({float(self.world_g)} if world_scatters else set())
+        self.phase_g_values = np.array(sorted(values), dtype=np.float64)
+        self.mixed_phase = len(self.phase_g_values) > 1
+        self._volume_component = np.array([int(np.searchsorted(self.phase_g_values, self.g[v])) if v in scatters
+                                           else -1 for v in range(self.n_volumes)], dtype=np.int64)
+        self._world_component = int(np.searchsorted(self.phase_g_values, self.world_g)) if world_scatters else -1
+        self._component_tables = None
+        if self.mixed_phase and self.n_volumes <= _MAX_TABLE_VOLUMES:
+            combos = (np.arange(1 << self.n_volumes)[:, None] >> np.arange(self.n_volumes)[None, :]) & 1
+            counts = np.zeros((len(combos), max(self.n_volumes, 1)), np.int8)
+            counts[:, :self.n_volumes] = combos
+            components = self._components_direct(counts)
+            self._component_tables = (components, (components.max(axis=2) > 0).sum(axis=1) > 1)
+
+    def _components_direct(self, counts: np.ndarray) -> np.ndarray:
+        n, k = len(counts), len(self.phase_g_values)
+        sigma_s = np.zeros((n, k, 3))
+        if self._world_component >= 0:
+            sigma_s[:, self._world_component] += self.world_sigma_s
+        if self.n_volumes:
+            inside = (counts[:, :self.n_volumes] > 0).astype(np.float64)
+            for c in range(k):
+                members = self._volume_component == c
+                if members.any():
+                    sigma_s[:, c] += inside[:, members] @ self.sigma_s[members]
+        return sigma_s
+
+    def phase_is_mixed(self, counts: np.ndarray) -> np.ndarray:
+        """Paths whose stack holds scattering homogeneous media of more than one g."""
+        if not self.mixed_phase:
+            return np.zeros(len(counts), dtype=bool)
+        if self._component_tables is not None:
+            return np.take(self._component_tables[1], self._stack_key(counts))
+        return (self._components_direct(counts).max(axis=2) > 0).sum(axis=1) > 1
+
+    def phase_components(self, counts: np.ndarray):
+        """(sigma_s per component (N, K, 3), g per component (K,)) of the homogeneous media:
+        the phase function there is sum_k sigma_s[:, k] HG(g_k) / sum_k sigma_s[:, k] per channel."""
+        if self._component_tables is not None:
+            return np.take(self._component_tables[0], self._stack_key(counts), axis=0), self.phase_g_values
+        return self._components_direct(counts), self.phase_g_values
 
     def cross(self, counts: np.ndarray, prim: np.ndarray, front: np.ndarray) -> None:
         """Update counters in place for null-boundary crossings of triangles prim."""

@@ -23,13 +23,20 @@ def _scene(g, sampling="mis", samples=64, seed=5, light=LIGHT):
                  settings=RenderSettings(samples=samples, seed=seed, volume_bounces=0, volume_sampling=sampling))
 
 
-def _quadrature(scene, g):
+def _hg_scattering(g, sigma_s=SIGMA_S):
+    """sigma_s x HG(g) per channel, as a function of cos(theta) (shape (...) -> (..., 3))."""
+    return lambda cos: sigma_s * hg_eval(g, cos)[..., None]
+
+
+def _quadrature(scene, g, scattering=None, sigma_t=SIGMA_S + SIGMA_A):
     """L = int_0^inf e^{-st t} ss p(theta) I e^{-st r} / r^2 dt, by Gauss-Legendre on t = tan(x)
-    split around the point closest to the light."""
+    split around the point closest to the light. scattering(cos) -> sigma_s x phase (..., 3)
+    replaces SIGMA_S x HG(g) (e.g. for mixtures of overlapping media)."""
+    scattering = scattering or _hg_scattering(g)
     cam = CameraModel(scene.camera, scene.film)
     ys, xs = np.mgrid[0:SIZE, 0:SIZE] + 0.5
     o, d, _ = cam.generate_rays(xs.ravel(), ys.ravel())
-    st = SIGMA_S + SIGMA_A
+    st = sigma_t
     intensity = POWER / (4 * np.pi)
     x, w = np.polynomial.legendre.leggauss(400)
     out = np.zeros((len(d), 3))
@@ -45,7 +52,7 @@ def _quadrature(scene, g):
         to_light = LIGHT - p
         r = np.linalg.norm(to_light, axis=1)
         cos = (to_light @ di) / r
-        f = np.exp(-np.outer(t + r, st)) * SIGMA_S * (hg_eval(g, cos) * intensity / r ** 2)[:, None]
+        f = np.exp(-np.outer(t + r, st)) * scattering(cos) * (intensity / r ** 2)[:, None]
         out[i] = (f * (w * jac)[:, None]).sum(axis=0)
     return out.reshape(SIZE, SIZE, 3)
 
@@ -89,14 +96,15 @@ def test_equiangular_mis_agrees_with_distance_sampling_and_has_lower_variance():
     assert np.abs(z).max() < Z_LIMIT, np.abs(z).max()
 
 
-def _quadrature_extended(scene, g, radius, sphere):
+def _quadrature_extended(scene, g, radius, sphere, scattering=None, sigma_t=SIGMA_S + SIGMA_A):
     """Single scattering from a sphere light (sphere=True, radiance L over its visible cone) or a
     soft-falloff disk (facing each point) of radius r: 2D Gauss-Legendre over the light for each
-    point of a 1D Gauss-Legendre along the camera ray."""
+    point of a 1D Gauss-Legendre along the camera ray. scattering as in _quadrature."""
+    scattering = scattering or _hg_scattering(g)
     cam = CameraModel(scene.camera, scene.film)
     ys, xs = np.mgrid[0:SIZE, 0:SIZE] + 0.5
     o, d, _ = cam.generate_rays(xs.ravel(), ys.ravel())
-    st = SIGMA_S + SIGMA_A
+    st = sigma_t
     radiance = POWER / (4 * np.pi ** 2 * radius ** 2)
     xt, wt = np.polynomial.legendre.leggauss(160)
     xa, wa = np.polynomial.legendre.leggauss(16)
@@ -140,9 +148,8 @@ def _quadrature_extended(scene, g, radius, sphere):
             w_dir = vec / s[..., None]
             weight = (wrho[None, :, None] * wphi[None, None, :]) * D[:, None, None] / s ** 3  # dA cos / s^2
         cos = np.einsum("tabk,k->tab", w_dir, di)
-        f = hg_eval(g, cos) * weight
-        inner = np.einsum("tab,tabc->tc", f, np.exp(-s[..., None] * st))
-        out[i] = (np.exp(-np.outer(t, st)) * SIGMA_S * radiance * inner * (wt * jac_t)[:, None]).sum(axis=0)
+        inner = np.einsum("tabc,tab,tabc->tc", scattering(cos), weight, np.exp(-s[..., None] * st))
+        out[i] = (np.exp(-np.outer(t, st)) * radiance * inner * (wt * jac_t)[:, None]).sum(axis=0)
     return out.reshape(SIZE, SIZE, 3)
 
 

@@ -1,0 +1,141 @@
+"""Overlapping media with different Henyey-Greenstein g: the phase function is the mixture
+sum_k sigma_s,k HG(g_k) / sigma_s per channel (not HG of a mean g). Sampling vs the analytic
+mixture (chi-square), and single scattering of two overlapping media vs quadrature."""
+import numpy as np
+import pytest
+
+from volpath_native import Camera, Material, Medium, PointLight, RenderSettings, Scene, World, render
+from volpath_native.phase import hg_eval, hg_mixture_pdf, hg_mixture_sample
+from volpath_native.sampling import orthonormal_basis
+
+from native_helpers import Z_LIMIT, box_mesh, camera_at, chi2_critical, tiny_box_film, z_scores
+from test_phase import _hg_cdf
+from test_single_scattering import LIGHT, POWER, SIZE, _quadrature, _quadrature_extended
+
+G = np.array([0.8, -0.6])
+WEIGHTS = np.array([0.3, 0.7])
+
+
+def _mixture_cdf(mu, weights=WEIGHTS, gs=G):
+    return sum(w * _hg_cdf(g, mu) for w, g in zip(weights, gs))
+
+
+def _chi2_against(mu, phi, cdf):
+    """Chi-square of samples (mu, phi) against a rotationally symmetric law with CDF cdf(mu):
+    16 equal-probability bins in mu x 8 in azimuth."""
+    grid = np.linspace(-1, 1, 200_001)
+    c = cdf(grid)
+    mu_edges = np.interp(np.linspace(0, 1, 17), c / c[-1], grid)
+    counts, _, _ = np.histogram2d(mu, phi, bins=[mu_edges, np.linspace(-np.pi, np.pi, 9)])
+    expected = len(mu) / counts.size
+    return ((counts - expected) ** 2 / expected).sum(), counts.size - 1
+
+
+def _sample_mixture(n, seed):
+    rng = np.random.default_rng(seed)
+    axis = np.array([0.3, -0.5, 0.81])
+    axis /= np.linalg.norm(axis)
+    d = np.tile(axis, (n, 1))
+    wo, pdf, k = hg_mixture_sample(d, np.tile(WEIGHTS, (n, 1)), G, rng.random(n), rng.random(n))
+    t, s = orthonormal_basis(axis[None, :])
+    return wo, pdf, k, wo @ axis, np.arctan2(wo @ s[0], wo @ t[0])
+
+
+def test_mixture_sampling_chi_square():
+    n = 200_000
+    wo, pdf, k, mu, phi = _sample_mixture(n, 11)
+    np.testing.assert_allclose(np.linalg.norm(wo, axis=1), 1.0, atol=1e-9)
+    # the returned pdf is the whole mixture's, for MIS
+    np.testing.assert_allclose(pdf, WEIGHTS[0] * hg_eval(G[0], mu) + WEIGHTS[1] * hg_eval(G[1], mu), rtol=1e-9)
+    # components are picked with their weights (binomial z-test)
+    share = (k == 0).mean()
+    assert abs(share - WEIGHTS[0]) < Z_LIMIT * np.sqrt(WEIGHTS[0] * WEIGHTS[1] / n), share
+    chi2, dof = _chi2_against(mu, phi, _mixture_cdf)
+    assert chi2 < chi2_critical(dof), chi2
+    # the analytic mixture pdf integrates to 1 with mean cosine sum_k w_k g_k
+    grid = np.linspace(-1, 1, 400_001)
+    w = 2 * np.pi * hg_mixture_pdf(np.tile(WEIGHTS, (len(grid), 1)), G, grid)
+    assert abs(np.trapz(w, grid) - 1) < 1e-3
+    assert abs(np.trapz(w * grid, grid) - WEIGHTS @ G) < 1e-3
+
+
+def test_mixture_chi_square_rejects_the_mean_g_approximation():
+    """The test above has power: HG of the weighted mean g (-0.18) does not pass as the mixture,
+    nor do the mixture's samples pass as HG(mean g)."""
+    n = 200_000
+    _, _, _, mu, phi = _sample_mixture(n, 12)
+    mean_g = WEIGHTS @ G
+    chi2, dof = _chi2_against(mu, phi, lambda m: _hg_cdf(mean_g, m))
+    assert chi2 > chi2_critical(dof), chi2
+    swapped, dof = _chi2_against(mu, phi, lambda m: _mixture_cdf(m, WEIGHTS[::-1]))
+    assert swapped > chi2_critical(dof), swapped
+
+
+def test_single_component_mixture_is_plain_hg():
+    rng = np.random.default_rng(3)
+    n = 1000
+    d = np.tile([0.0, 0.0, 1.0], (n, 1))
+    u1, u2 = rng.random(n), rng.random(n)
+    wo, pdf, _ = hg_mixture_sample(d, np.tile([1.0, 0.0], (n, 1)), np.array([0.4, -0.9]), u1, u2)
+    from volpath_native.phase import hg_sample
+    wo_hg, pdf_hg = hg_sample(d, np.full(n, 0.4), u1, u2)
+    np.testing.assert_allclose(wo, wo_hg, atol=1e-9)
+    np.testing.assert_allclose(pdf, pdf_hg, rtol=1e-9)
+
+
+# ---- rendering: a forward-scattering world medium overlapped by a back-scattering box ---------
+# Per-channel sigma_s ratios differ, so the mixture weights are chromatic.
+WORLD_SS, WORLD_SA, WORLD_G = np.array([0.35, 0.10, 0.25]), np.array([0.05, 0.10, 0.05]), 0.8
+BOX_SS, BOX_SA, BOX_G = np.array([0.10, 0.45, 0.30]), np.array([0.05, 0.05, 0.10]), -0.6
+SIGMA_T = WORLD_SS + WORLD_SA + BOX_SS + BOX_SA
+BOX_HALF = 40.0  # light leaving the box is attenuated by > e^-20: the quadrature's infinite medium
+
+
+def _overlap_scene(samples, seed, light):
+    cam = Camera(camera_at([0, 0, 0]), fov=np.radians(50), clip_start=0.0, clip_end=1e4)
+    media = [Medium("world fog", WORLD_SS, WORLD_SA, g=WORLD_G), Medium("box fog", BOX_SS, BOX_SA, g=BOX_G)]
+    return Scene(camera=cam, film=tiny_box_film(SIZE), media=media, world=World(medium=0),
+                 materials=[Material("box boundary", surface="null", medium=1)],
+                 meshes=[box_mesh("box", [-BOX_HALF] * 3, [BOX_HALF] * 3, material=0)],
+                 lights=[light],
+                 settings=RenderSettings(samples=samples, seed=seed, volume_bounces=0))
+
+
+def _mixture_scattering(cos):
+    return WORLD_SS * hg_eval(WORLD_G, cos)[..., None] + BOX_SS * hg_eval(BOX_G, cos)[..., None]
+
+
+def _mean_g_scattering(cos):
+    """What the renderer used to do: HG of the (channel-averaged) sigma_s-weighted mean g."""
+    mean_g = (WORLD_SS.mean() * WORLD_G + BOX_SS.mean() * BOX_G) / (WORLD_SS.mean() + BOX_SS.mean())
+    return (WORLD_SS + BOX_SS) * hg_eval(mean_g, cos)[..., None]
+
+
+def _check(result, expected, wrong):
+    z = z_scores(result.image[..., :3], result.variance, expected)
+    assert np.abs(z).max() < Z_LIMIT, (np.abs(z).max(), result.image[..., :3].mean(axis=(0, 1)),
+                                       expected.mean(axis=(0, 1)))
+    chi2 = (z ** 2).sum(axis=(0, 1))
+    assert np.all(chi2 < chi2_critical(SIZE * SIZE)), chi2
+    # the old mean-g approximation differs by far more than the noise: this test would catch it
+    z_old = z_scores(result.image[..., :3], result.variance, wrong)
+    assert np.any((z_old ** 2).sum(axis=(0, 1)) > chi2_critical(SIZE * SIZE)), (z_old ** 2).sum(axis=(0, 1))
+
+
+def test_overlapping_media_point_light_matches_mixture_quadrature():
+    """Next-event estimation with the mixture value (point light: light sampling only)."""
+    scene = _overlap_scene(256, 21, PointLight("p", LIGHT, power=POWER, radius=0.0))
+    result = render(scene)
+    expected = _quadrature(scene, None, _mixture_scattering, SIGMA_T)
+    _check(result, expected, _quadrature(scene, None, _mean_g_scattering, SIGMA_T))
+
+
+def test_overlapping_media_sphere_light_matches_mixture_quadrature():
+    """A sphere lamp is also reached by phase-sampled rays: mixture sampling, its value / pdf
+    weight and its pdf in the power heuristic must combine with NEE to the exact integral."""
+    radius = 0.4
+    light = PointLight("lamp", LIGHT, power=POWER, radius=radius, soft_falloff=False, visible_camera=False)
+    scene = _overlap_scene(256, 22, light)
+    result = render(scene)
+    expected = _quadrature_extended(scene, None, radius, True, _mixture_scattering, SIGMA_T)
+    _check(result, expected, _quadrature_extended(scene, None, radius, True, _mean_g_scattering, SIGMA_T))
