@@ -59,7 +59,7 @@ class MediaTable:
         self.accel = accel
         self.warnings: list[str] = []
         self._tables = self._build_tables()
-        self._init_phase_components()
+        self._init_phase_components(media, w)
         world_t = self.world_sigma_s + self.world_sigma_a
         if np.any((self.world_emission > 0) & (world_t <= 0)):
             self.warnings.append("world medium emits but does not attenuate: its emission would be "
@@ -133,19 +133,27 @@ class MediaTable:
         return sigma_s, sigma_s + sigma_a, emission, g
 
     # ---- phase mixtures of overlapping homogeneous media --------------------------------------
-    def _init_phase_components(self):
-        """Group the scattering homogeneous media (world included) by g: one mixture component
-        per distinct g (Cycles merges volume closures of equal g the same way,
-        kernel/integrator/volume_shader.h volume_shader_merge_closures). mixed_phase is False when
-        at most one g scatters anywhere, and then the integrator never asks for components."""
-        scatters = [v for v in range(self.n_volumes) if not self.volume_is_grid[v] and np.any(self.sigma_s[v] > 0)]
-        world_scatters = bool(np.any(self.world_sigma_s > 0))
-        values = {float(self.g[v]) for v in scatters} | ({float(self.world_g)} if world_scatters else set())
+    def _init_phase_components(self, media, world_medium: int):
+        """Group the scattering lobes of the homogeneous media (world included; a medium has one
+        lobe unless it lists phase_lobes) by g: one mixture component per distinct g (Cycles
+        merges volume closures of equal g the same way, kernel/integrator/volume_shader.h
+        volume_shader_merge_closures). mixed_phase is False when at most one g scatters anywhere,
+        and then the integrator never asks for components."""
+        def lobes(medium):
+            return [(s, float(g)) for s, g in medium.lobes() if np.any(s > 0)]
+        volume_lobes = {v: lobes(media[m]) for v, m in enumerate(self.volume_medium) if not self.volume_is_grid[v]}
+        world_lobes = lobes(media[world_medium]) if world_medium >= 0 else []
+        values = {g for ls in volume_lobes.values() for _, g in ls} | {g for _, g in world_lobes}
         self.phase_g_values = np.array(sorted(values), dtype=np.float64)
         self.mixed_phase = len(self.phase_g_values) > 1
-        self._volume_component = np.array([int(np.searchsorted(self.phase_g_values, self.g[v])) if v in scatters
-                                           else -1 for v in range(self.n_volumes)], dtype=np.int64)
-        self._world_component = int(np.searchsorted(self.phase_g_values, self.world_g)) if world_scatters else -1
+        k = len(self.phase_g_values)
+        self._volume_lobe_sigma = np.zeros((max(self.n_volumes, 1), k, 3))
+        for v, ls in volume_lobes.items():
+            for sigma_s, g in ls:
+                self._volume_lobe_sigma[v, int(np.searchsorted(self.phase_g_values, g))] += sigma_s
+        self._world_lobe_sigma = np.zeros((k, 3))
+        for sigma_s, g in world_lobes:
+            self._world_lobe_sigma[int(np.searchsorted(self.phase_g_values, g))] += sigma_s
         self._component_tables = None
         if self.mixed_phase and self.n_volumes <= _MAX_TABLE_VOLUMES:
             combos = (np.arange(1 << self.n_volumes)[:, None] >> np.arange(self.n_volumes)[None, :]) & 1
@@ -155,16 +163,10 @@ class MediaTable:
             self._component_tables = (components, (components.max(axis=2) > 0).sum(axis=1) > 1)
 
     def _components_direct(self, counts: np.ndarray) -> np.ndarray:
-        n, k = len(counts), len(self.phase_g_values)
-        sigma_s = np.zeros((n, k, 3))
-        if self._world_component >= 0:
-            sigma_s[:, self._world_component] += self.world_sigma_s
+        sigma_s = np.broadcast_to(self._world_lobe_sigma, (len(counts),) + self._world_lobe_sigma.shape).copy()
         if self.n_volumes:
             inside = (counts[:, :self.n_volumes] > 0).astype(np.float64)
-            for c in range(k):
-                members = self._volume_component == c
-                if members.any():
-                    sigma_s[:, c] += inside[:, members] @ self.sigma_s[members]
+            sigma_s += np.einsum("nv,vkc->nkc", inside, self._volume_lobe_sigma[:self.n_volumes])
         return sigma_s
 
     def phase_is_mixed(self, counts: np.ndarray) -> np.ndarray:

@@ -62,6 +62,12 @@ class Medium:
     sigma_s, sigma_a: scattering / absorption coefficients in 1/m (RGB).
     g: Henyey-Greenstein anisotropy in (-1, 1); > 0 scatters forward.
     emission: emitted radiance per unit length, W/(m^3 sr) (RGB), as Cycles' volume emission.
+    phase_lobes: optional [(sigma_s_k RGB, g_k), ...] for a medium whose scattering is several
+        Henyey-Greenstein lobes (e.g. a Mix Shader of volume shaders with different anisotropy;
+        Cycles keeps one closure per lobe): phase = sum_k sigma_s_k HG(g_k) / sigma_s per channel.
+        When given, sigma_s must equal the sum of the lobes' sigma_s (validate() warns and uses
+        the sum) and g is only informative (set to the sigma_s-weighted mean). Empty: one lobe
+        (sigma_s, g).
     """
 
     name: str
@@ -69,6 +75,7 @@ class Medium:
     sigma_a: np.ndarray
     g: float = 0.0
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    phase_lobes: list = field(default_factory=list)
 
     # Scene.media may also hold heterogeneous grid_medium.GridMedium objects (is_homogeneous False),
     # bounded by a closed null mesh like any medium; they cannot be the world medium.
@@ -79,6 +86,17 @@ class Medium:
         self.sigma_a = rgb(self.sigma_a, f"medium '{self.name}' sigma_a")
         self.emission = rgb(self.emission, f"medium '{self.name}' emission")
         self.g = float(self.g)
+        lobes = []
+        for k, lobe in enumerate(self.phase_lobes or []):
+            try:
+                lobe_sigma_s, lobe_g = lobe
+            except (TypeError, ValueError):
+                raise SceneError(f"medium '{self.name}' phase lobe {k}: expected (sigma_s RGB, g), got {lobe!r}")
+            lobe_g = float(lobe_g)
+            if not np.isfinite(lobe_g):
+                raise SceneError(f"medium '{self.name}' phase lobe {k}: non-finite g {lobe_g}")
+            lobes.append((rgb(lobe_sigma_s, f"medium '{self.name}' phase lobe {k} sigma_s"), lobe_g))
+        self.phase_lobes = lobes
 
     @property
     def sigma_t(self) -> np.ndarray:
@@ -94,7 +112,35 @@ class Medium:
             clamped = float(np.clip(np.nan_to_num(self.g), -0.999, 0.999))
             warnings.append(f"medium '{self.name}': anisotropy {self.g} clamped to {clamped}")
             self.g = clamped
+        if self.phase_lobes:
+            warnings += self._validate_lobes()
         return warnings
+
+    def _validate_lobes(self) -> list[str]:
+        warnings = []
+        lobes = []
+        for k, (lobe_sigma_s, lobe_g) in enumerate(self.phase_lobes):
+            if np.any(lobe_sigma_s < 0):
+                warnings.append(f"medium '{self.name}': negative sigma_s of phase lobe {k} clamped to 0")
+            if abs(lobe_g) >= 1.0:
+                clamped = float(np.clip(lobe_g, -0.999, 0.999))  # as Cycles' HG setup
+                warnings.append(f"medium '{self.name}': anisotropy {lobe_g} of phase lobe {k} clamped to {clamped}")
+                lobe_g = clamped
+            lobes.append((np.maximum(lobe_sigma_s, 0.0), lobe_g))
+        self.phase_lobes = lobes
+        total = np.sum([s for s, _ in lobes], axis=0)
+        if not np.allclose(total, self.sigma_s, rtol=1e-6, atol=1e-12):
+            warnings.append(f"medium '{self.name}': sigma_s {self.sigma_s.tolist()} is not the sum of its phase "
+                            f"lobes {total.tolist()}; the lobes' sum is used")
+            self.sigma_s = total
+        weights = np.array([s.mean() for s, _ in lobes])
+        if weights.sum() > 0:
+            self.g = float(weights @ np.array([g for _, g in lobes]) / weights.sum())
+        return warnings
+
+    def lobes(self) -> list:
+        """[(sigma_s_k RGB, g_k)]: the phase lobes, or the single lobe (sigma_s, g)."""
+        return list(self.phase_lobes) if self.phase_lobes else [(self.sigma_s, self.g)]
 
 
 # ----------------------------------------------------------------------------------------------

@@ -29,25 +29,28 @@ _LIGHT_TYPES = {"point": sc.PointLight, "spot": sc.SpotLight, "area": sc.AreaLig
 _LIGHT_NAMES = {cls: name for name, cls in _LIGHT_TYPES.items()}
 
 
+def _jsonable(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (tuple, list)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
 def _to_json(obj) -> dict:
-    out = {}
-    for f in dataclasses.fields(obj):
-        value = getattr(obj, f.name)
-        if isinstance(value, np.ndarray):
-            value = value.tolist()
-        elif isinstance(value, tuple):
-            value = list(value)
-        elif isinstance(value, np.generic):
-            value = value.item()
-        out[f.name] = value
-    return out
+    return {f.name: _jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
 
 
 def _medium_header(index: int, medium, arrays: dict) -> dict:
     """Homogeneous media are plain JSON; grid media (type "grid") keep their voxel arrays as
     `medium{i}.<name>` entries (additive to format version 1: older files have none)."""
     if getattr(medium, "is_homogeneous", True):
-        return _to_json(medium)
+        header = _to_json(medium)
+        if not header.get("phase_lobes"):
+            header.pop("phase_lobes", None)  # additive to version 1: single-lobe files stay as before
+        return header
     header, grids = medium.to_record()
     for key, value in grids.items():
         arrays[f"medium{index}.{key}"] = value

@@ -111,12 +111,25 @@ def _mean_g_scattering(cos):
     return (WORLD_SS + BOX_SS) * hg_eval(mean_g, cos)[..., None]
 
 
+# Lamp just outside the view: no camera ray passes through or near the sphere lamp, where
+# _quadrature_extended is only approximate (it clamps the closest approach to 1.01 r).
+SIDE_LIGHT = np.array([2.0, 0.3, -2.0])
+
+
+def _sphere_lamp(radius):
+    return PointLight("lamp", SIDE_LIGHT, power=POWER, radius=radius, soft_falloff=False, visible_camera=False)
+
+
 def _check(result, expected, wrong):
     z = z_scores(result.image[..., :3], result.variance, expected)
     assert np.abs(z).max() < Z_LIMIT, (np.abs(z).max(), result.image[..., :3].mean(axis=(0, 1)),
                                        expected.mean(axis=(0, 1)))
     chi2 = (z ** 2).sum(axis=(0, 1))
     assert np.all(chi2 < chi2_critical(SIZE * SIZE)), chi2
+    # the image mean too (pixels are independent): small biases hide in per-pixel noise
+    z_mean = z_scores(result.image[..., :3].mean(axis=(0, 1)), result.variance.sum(axis=(0, 1)) / SIZE ** 4,
+                      expected.mean(axis=(0, 1)))
+    assert np.all(np.abs(z_mean) < Z_LIMIT), z_mean
     # the old mean-g approximation differs by far more than the noise: this test would catch it
     z_old = z_scores(result.image[..., :3], result.variance, wrong)
     assert np.any((z_old ** 2).sum(axis=(0, 1)) > chi2_critical(SIZE * SIZE)), (z_old ** 2).sum(axis=(0, 1))
@@ -134,11 +147,10 @@ def test_overlapping_media_sphere_light_matches_mixture_quadrature():
     """A sphere lamp is also reached by phase-sampled rays: mixture sampling, its value / pdf
     weight and its pdf in the power heuristic must combine with NEE to the exact integral."""
     radius = 0.4
-    light = PointLight("lamp", LIGHT, power=POWER, radius=radius, soft_falloff=False, visible_camera=False)
-    scene = _overlap_scene(256, 22, light)
+    scene = _overlap_scene(256, 22, _sphere_lamp(radius))
     result = render(scene)
-    expected = _quadrature_extended(scene, None, radius, True, _mixture_scattering, SIGMA_T)
-    _check(result, expected, _quadrature_extended(scene, None, radius, True, _mean_g_scattering, SIGMA_T))
+    expected = _quadrature_extended(scene, None, radius, True, _mixture_scattering, SIGMA_T, SIDE_LIGHT)
+    _check(result, expected, _quadrature_extended(scene, None, radius, True, _mean_g_scattering, SIGMA_T, SIDE_LIGHT))
 
 
 # ---- multiple scattering ------------------------------------------------------------------------
@@ -195,3 +207,44 @@ def test_grid_overlapping_media_of_different_g_matches_homogeneous_equivalent():
     z = z_scores(blocks(grid.image[..., :3]), bvar(grid.variance), blocks(hom.image[..., :3]), bvar(hom.variance))
     assert np.abs(z).max() < Z_LIMIT, np.abs(z).max()
     assert hom.image[..., :3].mean() > 0.01
+
+
+# ---- one medium with several lobes (Medium.phase_lobes) -------------------------------------------
+def _two_lobe_world_scene(samples, seed, light):
+    scene = _overlap_scene(samples, seed, light)
+    scene.meshes, scene.materials = [], []
+    scene.media = [Medium("two-lobe fog", WORLD_SS + BOX_SS, WORLD_SA + BOX_SA,
+                          phase_lobes=[(WORLD_SS, WORLD_G), (BOX_SS, BOX_G)])]
+    return scene
+
+
+def test_two_lobe_medium_matches_mixture_quadrature():
+    """A single medium listing two HG lobes is the same mixture as two overlapping media."""
+    radius = 0.4
+    scene = _two_lobe_world_scene(256, 23, _sphere_lamp(radius))
+    result = render(scene)
+    assert not result.warnings, result.warnings
+    expected = _quadrature_extended(scene, None, radius, True, _mixture_scattering, SIGMA_T, SIDE_LIGHT)
+    _check(result, expected, _quadrature_extended(scene, None, radius, True, _mean_g_scattering, SIGMA_T, SIDE_LIGHT))
+
+
+def test_phase_lobes_validation_and_round_trip(tmp_path):
+    from volpath_native import SceneError, load_scene, save_scene
+    scene = _two_lobe_world_scene(2, 1, PointLight("p", LIGHT, power=POWER, radius=0.0))
+    scene.media[0].sigma_s = np.array([9.0, 9.0, 9.0])  # inconsistent with the lobes
+    scene.media[0].phase_lobes[1] = (BOX_SS, 1.5)        # outside (-1, 1)
+    warnings = scene.validate()
+    assert any("not the sum of its phase lobes" in w for w in warnings), warnings
+    assert any("clamped to 0.999" in w for w in warnings), warnings
+    np.testing.assert_allclose(scene.media[0].sigma_s, WORLD_SS + BOX_SS)
+    loaded = load_scene(save_scene(scene, tmp_path / "lobes.vpscene"))
+    assert [g for _, g in loaded.media[0].phase_lobes] == [WORLD_G, 0.999]
+    np.testing.assert_array_equal(render(loaded).image, render(scene).image)
+    with pytest.raises(SceneError, match="phase lobe 0"):
+        Medium("bad", 1.0, 0.0, phase_lobes=[(1.0,)])
+    # single-lobe media are saved exactly as before (no phase_lobes key)
+    single = _overlap_scene(2, 1, PointLight("p", LIGHT, power=POWER, radius=0.0))
+    import json
+    path = save_scene(single, tmp_path / "single.vpscene")
+    header = json.loads(bytes(np.load(path)["scene.json"]).decode())
+    assert all("phase_lobes" not in m for m in header["media"])

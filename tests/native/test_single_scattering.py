@@ -28,7 +28,7 @@ def _hg_scattering(g, sigma_s=SIGMA_S):
     return lambda cos: sigma_s * hg_eval(g, cos)[..., None]
 
 
-def _quadrature(scene, g, scattering=None, sigma_t=SIGMA_S + SIGMA_A):
+def _quadrature(scene, g, scattering=None, sigma_t=SIGMA_S + SIGMA_A, light=LIGHT):
     """L = int_0^inf e^{-st t} ss p(theta) I e^{-st r} / r^2 dt, by Gauss-Legendre on t = tan(x)
     split around the point closest to the light. scattering(cos) -> sigma_s x phase (..., 3)
     replaces SIGMA_S x HG(g) (e.g. for mixtures of overlapping media)."""
@@ -41,15 +41,15 @@ def _quadrature(scene, g, scattering=None, sigma_t=SIGMA_S + SIGMA_A):
     x, w = np.polynomial.legendre.leggauss(400)
     out = np.zeros((len(d), 3))
     for i, (oi, di) in enumerate(zip(o, d)):
-        delta = (LIGHT - oi) @ di
-        dist = np.linalg.norm(oi + delta * di - LIGHT)
+        delta = (light - oi) @ di
+        dist = np.linalg.norm(oi + delta * di - light)
         # equiangular substitution t = delta + D tan(theta) makes the integrand smooth
         ta, tb = np.arctan2(-delta, dist), np.pi / 2
         th = 0.5 * (tb - ta) * x + 0.5 * (tb + ta)
         t = delta + dist * np.tan(th)
         jac = 0.5 * (tb - ta) * dist / np.cos(th) ** 2
         p = oi + t[:, None] * di
-        to_light = LIGHT - p
+        to_light = light - p
         r = np.linalg.norm(to_light, axis=1)
         cos = (to_light @ di) / r
         f = np.exp(-np.outer(t + r, st)) * scattering(cos) * (intensity / r ** 2)[:, None]
@@ -96,7 +96,7 @@ def test_equiangular_mis_agrees_with_distance_sampling_and_has_lower_variance():
     assert np.abs(z).max() < Z_LIMIT, np.abs(z).max()
 
 
-def _quadrature_extended(scene, g, radius, sphere, scattering=None, sigma_t=SIGMA_S + SIGMA_A):
+def _quadrature_extended(scene, g, radius, sphere, scattering=None, sigma_t=SIGMA_S + SIGMA_A, light=LIGHT):
     """Single scattering from a sphere light (sphere=True, radiance L over its visible cone) or a
     soft-falloff disk (facing each point) of radius r: 2D Gauss-Legendre over the light for each
     point of a 1D Gauss-Legendre along the camera ray. scattering as in _quadrature."""
@@ -110,14 +110,14 @@ def _quadrature_extended(scene, g, radius, sphere, scattering=None, sigma_t=SIGM
     xa, wa = np.polynomial.legendre.leggauss(16)
     out = np.zeros((len(d), 3))
     for i, (oi, di) in enumerate(zip(o, d)):
-        delta = (LIGHT - oi) @ di
-        dist = max(np.linalg.norm(oi + delta * di - LIGHT), radius * 1.01)
+        delta = (light - oi) @ di
+        dist = max(np.linalg.norm(oi + delta * di - light), radius * 1.01)
         ta, tb = np.arctan2(-delta, dist), np.pi / 2
         th = 0.5 * (tb - ta) * xt + 0.5 * (tb + ta)
         t = delta + dist * np.tan(th)
         jac_t = 0.5 * (tb - ta) * dist / np.cos(th) ** 2
         p = oi + t[:, None] * di
-        to_c = LIGHT - p
+        to_c = light - p
         D = np.linalg.norm(to_c, axis=1)
         axis = to_c / D[:, None]
         # tangent frame around the axis
@@ -141,7 +141,7 @@ def _quadrature_extended(scene, g, radius, sphere, scattering=None, sigma_t=SIGM
         else:
             rho = 0.5 * radius * (xa + 1)
             wrho = 0.5 * radius * wa * rho
-            pts = (LIGHT[None, None, None, :] + rho[None, :, None, None] *
+            pts = (light[None, None, None, :] + rho[None, :, None, None] *
                    (np.cos(phi)[None, None, :, None] * u[:, None, None, :] + np.sin(phi)[None, None, :, None] * v[:, None, None, :]))
             vec = pts - p[:, None, None, :]
             s = np.linalg.norm(vec, axis=3)
