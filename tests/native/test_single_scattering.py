@@ -128,14 +128,18 @@ def _quadrature_extended(scene, g, radius, sphere, scattering=None, sigma_t=SIGM
         phi = np.pi * (xa + 1)            # [0, 2 pi)
         wphi = np.pi * wa
         if sphere:
-            alpha = np.arcsin(np.clip(radius / D, 0, 1))
+            # outside: the lamp's cone; inside: every direction meets the sphere (Cycles
+            # kernel/light/point.h samples the whole sphere there for volumes)
+            inside = D <= radius
+            alpha = np.where(inside, np.pi, np.arcsin(np.clip(radius / D, 0, 1)))
             theta = 0.5 * alpha[:, None] * (xa[None, :] + 1)          # (T, A)
             wth = 0.5 * alpha[:, None] * wa[None, :] * np.sin(theta)
             ct, stt = np.cos(theta), np.sin(theta)
             w_dir = (ct[:, :, None, None] * axis[:, None, None, :]
                      + stt[:, :, None, None] * (np.cos(phi)[None, None, :, None] * u[:, None, None, :]
                                                + np.sin(phi)[None, None, :, None] * v[:, None, None, :]))
-            s = D[:, None] * ct - np.sqrt(np.maximum(radius ** 2 - (D[:, None] * stt) ** 2, 0))
+            chord = np.sqrt(np.maximum(radius ** 2 - (D[:, None] * stt) ** 2, 0))
+            s = D[:, None] * ct + np.where(inside[:, None], chord, -chord)
             s = np.broadcast_to(s[:, :, None], w_dir.shape[:3])
             weight = wth[:, :, None] * wphi[None, None, :]
         else:
@@ -166,6 +170,10 @@ def test_single_scattering_from_sphere_and_soft_falloff_lights(sphere):
     expected = _quadrature_extended(scene, g, radius, sphere)
     z = z_scores(result.image[..., :3], result.variance, expected)
     assert np.abs(z).max() < Z_LIMIT, (np.abs(z).max(), result.image[..., 1].mean(), expected[..., 1].mean())
+    # the image mean too: a bias confined to a few pixels (rays through the lamp) hides in per-pixel noise
+    z_mean = z_scores(result.image[..., :3].mean(axis=(0, 1)), result.variance.sum(axis=(0, 1)) / SIZE ** 4,
+                      expected.mean(axis=(0, 1)))
+    assert np.all(np.abs(z_mean) < Z_LIMIT), z_mean
     z_wrong = z_scores(result.image[..., :3], result.variance, 1.1 * expected)
     assert np.all((z_wrong ** 2).sum(axis=(0, 1)) > chi2_critical(SIZE * SIZE))
 
