@@ -248,3 +248,32 @@ def test_phase_lobes_validation_and_round_trip(tmp_path):
     path = save_scene(single, tmp_path / "single.vpscene")
     header = json.loads(bytes(np.load(path)["scene.json"]).decode())
     assert all("phase_lobes" not in m for m in header["media"])
+
+
+def test_stacks_with_one_g_keep_the_fast_path():
+    """Overlapping media that share g (and lobes of equal g) never build mixture components;
+    media of different g do, and only their overlap is mixed."""
+    from volpath_native.accel import Accelerator
+    from volpath_native.media import MediaTable
+    scene = _overlap_scene(1, 1, PointLight("p", LIGHT, power=POWER, radius=0.0))
+    scene.media[1].g = WORLD_G
+    scene.validate()
+    table = MediaTable(scene, Accelerator(scene.meshes))
+    assert not table.mixed_phase
+    assert not table.phase_is_mixed(np.array([[0], [1]], np.int8)).any()
+    scene.media[1] = Medium("box fog", BOX_SS, BOX_SA, phase_lobes=[(BOX_SS / 2, WORLD_G), (BOX_SS / 2, WORLD_G)])
+    scene.validate()
+    assert not MediaTable(scene, Accelerator(scene.meshes)).mixed_phase
+    scene.media[1] = Medium("box fog", BOX_SS, BOX_SA, g=BOX_G)
+    scene.world.medium = -1  # only the box scatters: one g inside it, nothing outside
+    scene.media.append(Medium("other", WORLD_SS, WORLD_SA, g=WORLD_G))  # unused medium: no effect
+    scene.validate()
+    assert not MediaTable(scene, Accelerator(scene.meshes)).mixed_phase
+    scene.world.medium = 0
+    table = MediaTable(scene, Accelerator(scene.meshes))
+    assert table.mixed_phase
+    np.testing.assert_array_equal(table.phase_is_mixed(np.array([[0], [1]], np.int8)), [False, True])
+    sigma_k, g_k = table.phase_components(np.array([[1]], np.int8))
+    np.testing.assert_allclose(g_k, sorted([WORLD_G, BOX_G]))
+    np.testing.assert_allclose(sigma_k[0, list(g_k).index(BOX_G)], BOX_SS)
+    np.testing.assert_allclose(sigma_k[0, list(g_k).index(WORLD_G)], WORLD_SS)
