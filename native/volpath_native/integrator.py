@@ -653,9 +653,9 @@ class Integrator:
 
 
 def _phase_mixture(components, cos_theta):
+    """Sum of sigma_s * HG over components (RGB) and the mixture's pdf (weights: mean sigma_s)."""
     # Cycles: kernel/integrator/volume_shader.h _volume_shader_phase_eval_mis (value = sum of the
     # closures' weighted evals, pdf = sample-weighted mean of their pdfs)
-    """Sum of sigma_s * HG over components (RGB) and the mixture's pdf (weights: mean sigma_s)."""
     f = np.zeros((len(cos_theta), 3))
     num = np.zeros(len(cos_theta))
     den = np.zeros(len(cos_theta))
