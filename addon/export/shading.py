@@ -178,12 +178,12 @@ def _principled(reader: NodeReader, node) -> _Surface:
 # ----------------------------------------------------------------------------------------------
 @dataclass
 class _Volume:
-    """Sums of coefficients; g_weighted = sum of sigma_s-weight x g, for the mean cosine."""
+    """Sums of coefficients, and the scattering closures as (sigma_s RGB, g) terms."""
 
     sigma_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
     sigma_a: np.ndarray = field(default_factory=lambda: np.zeros(3))
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    g_terms: list = field(default_factory=list)  # (scatter weight, g)
+    g_terms: list = field(default_factory=list)  # (sigma_s RGB, g) per scattering closure
 
     def scaled(self, w: float) -> "_Volume":
         return _Volume(self.sigma_s * w, self.sigma_a * w, self.emission * w,
@@ -200,7 +200,7 @@ class _Volume:
 
 def _scatter_term(sigma_s: np.ndarray, g: float) -> list:
     # Cycles clamps g per closure (kernel/closure/volume_henyey_greenstein.h).
-    return [(float(np.mean(sigma_s)), float(np.clip(g, -HG_G_LIMIT, HG_G_LIMIT)))]
+    return [(np.asarray(sigma_s, dtype=np.float64), float(np.clip(g, -HG_G_LIMIT, HG_G_LIMIT)))]
 
 
 def _volume_from(reader: NodeReader, socket) -> _Volume:
@@ -266,15 +266,19 @@ def _volume_from(reader: NodeReader, socket) -> _Volume:
     return _Volume()
 
 
-def _medium_from(name: str, volume: _Volume, reader: NodeReader, node) -> vp.Medium:
-    weights = np.array([w for w, _ in volume.g_terms], dtype=np.float64)
-    gs = np.array([g for _, g in volume.g_terms], dtype=np.float64)
-    g = float(np.sum(weights * gs) / np.sum(weights)) if weights.size and np.sum(weights) > 0 else 0.0
-    scattering = weights > 0
-    if np.count_nonzero(scattering) > 1 and np.ptp(gs[scattering]) > 1e-6:
-        reader.warn(node, f"scattering closures with different anisotropies are combined into one "
-                          f"Henyey-Greenstein lobe with the weighted mean g = {g:.3f}")
-    return vp.Medium(name=name, sigma_s=volume.sigma_s, sigma_a=volume.sigma_a, g=g, emission=volume.emission)
+def _medium_from(name: str, volume: _Volume) -> vp.Medium:
+    """One Henyey-Greenstein lobe per distinct anisotropy: Cycles keeps one closure per volume shader
+    and merges only closures with equal g (kernel/integrator/volume_shader.h,
+    volume_shader_merge_closures); the renderer samples and evaluates the exact mixture."""
+    lobes: dict = {}
+    for sigma_s, g in volume.g_terms:
+        if np.any(sigma_s > 0):
+            lobes[g] = lobes.get(g, 0.0) + sigma_s
+    if len(lobes) <= 1:
+        g = next(iter(lobes), 0.0)
+        return vp.Medium(name=name, sigma_s=volume.sigma_s, sigma_a=volume.sigma_a, g=g, emission=volume.emission)
+    return vp.Medium(name=name, sigma_s=volume.sigma_s, sigma_a=volume.sigma_a, emission=volume.emission,
+                     phase_lobes=[(sigma_s, g) for g, sigma_s in lobes.items()])
 
 
 # ----------------------------------------------------------------------------------------------
@@ -317,7 +321,7 @@ class MaterialTable:
         has_volume = _source_socket(volume_socket) is not None
         medium = -1
         if has_volume and not volume.is_empty:
-            self.media.append(_medium_from(name, volume, reader, output))
+            self.media.append(_medium_from(name, volume))
             medium = len(self.media) - 1
         if has_volume and not has_surface:
             # Volume only: an invisible boundary (scene/shader.cpp sets SD_HAS_ONLY_VOLUME, and
@@ -369,6 +373,6 @@ def export_world(world, table: MaterialTable) -> vp.World:
     medium = -1
     volume = _volume_from(reader, output.inputs["Volume"])
     if not volume.is_empty:
-        table.media.append(_medium_from(f"world '{world.name_full}'", volume, reader, output))
+        table.media.append(_medium_from(f"world '{world.name_full}'", volume))
         medium = len(table.media) - 1
     return vp.World(background=background, medium=medium)

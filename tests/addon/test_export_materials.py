@@ -102,6 +102,27 @@ def test_anisotropy_clamped_like_cycles(scene):
     assert scene_.media[0].g == pytest.approx(0.999)
 
 
+def test_scatter_closures_with_different_anisotropy_become_phase_lobes(scene):
+    def mixed(tree):
+        mix = tree.nodes.new("ShaderNodeMixShader")
+        mix.inputs[0].default_value = 0.25
+        forward = shader("ShaderNodeVolumeScatter", Color=(1.0, 1.0, 1.0, 1.0), Density=2.0, Anisotropy=0.8)(tree)
+        backward = shader("ShaderNodeVolumeScatter", Color=(1.0, 0.5, 0.0, 1.0), Density=4.0, Anisotropy=-0.6)(tree)
+        tree.links.new(forward, mix.inputs[1])
+        tree.links.new(backward, mix.inputs[2])
+        return mix.outputs[0]
+
+    scene_, _, warnings = _material(scene, node_material("TwoLobes", volume=mixed))
+    medium = scene_.media[0]
+    lobes = {g: sigma_s for sigma_s, g in medium.lobes()}
+    assert sorted(lobes) == pytest.approx([-0.6, 0.8])
+    # Mix Shader weights each closure (Cycles svm_node_mix_closure): 0.75 x 2 x white, 0.25 x 4 x colour.
+    np.testing.assert_allclose(lobes[max(lobes)], [1.5, 1.5, 1.5], rtol=1e-6)
+    np.testing.assert_allclose(lobes[min(lobes)], [1.0, 0.5, 0.0], rtol=1e-6)
+    np.testing.assert_allclose(medium.sigma_s, [2.5, 2.0, 1.5], rtol=1e-6)
+    assert not any("anisotrop" in w for w in warnings), warnings
+
+
 def test_nothing_connected_is_black(scene):
     _, material, _ = _material(scene, node_material("Empty"))
     assert material.surface == "diffuse" and material.medium == -1
