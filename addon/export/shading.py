@@ -63,6 +63,14 @@ def _source_socket(socket):
     return None
 
 
+def _shader_node(socket):
+    """The unmuted shader node feeding `socket`, or None (nothing connected: black / no medium)."""
+    source = _source_socket(socket)
+    if source is None or source.node.mute:
+        return None
+    return source.node
+
+
 class NodeReader:
     """Reads constant inputs of one material's nodes, warning about what it cannot evaluate."""
 
@@ -123,11 +131,8 @@ class _Surface:
 
 def surface_from(reader: NodeReader, socket) -> _Surface:
     """The surface closure feeding `socket` (a shader socket); black if nothing is connected."""
-    source = _source_socket(socket)
-    if source is None:
-        return _Surface()
-    node = source.node
-    if node.mute:
+    node = _shader_node(socket)
+    if node is None:
         return _Surface()
     kind = node.type
     if kind == "BSDF_DIFFUSE":
@@ -204,11 +209,8 @@ def _scatter_term(sigma_s: np.ndarray, g: float) -> list:
 
 
 def _volume_from(reader: NodeReader, socket) -> _Volume:
-    source = _source_socket(socket)
-    if source is None:
-        return _Volume()
-    node = source.node
-    if node.mute:
+    node = _shader_node(socket)
+    if node is None:
         return _Volume()
     kind = node.type
     if kind == "PRINCIPLED_VOLUME":
