@@ -194,15 +194,27 @@ def test_depsgraph_export_finds_every_volume_object(openvdb, tmp_path, clean_sce
 # ---------------------------------------------------------------------------------------------
 # Against Cycles: an absorbing smoke blob in front of a white background
 # ---------------------------------------------------------------------------------------------
-def render_cycles(scene, seed, path):
-    scene.cycles.seed = seed
-    scene.render.filepath = str(path)
-    bpy.ops.render.render(write_still=True)
-    image = bpy.data.images.load(str(path))
-    width, height = scene.render.resolution_x, scene.render.resolution_y
-    pixels = np.array(image.pixels[:], dtype=np.float64).reshape(height, width, 4)[::-1, :, :3]
-    bpy.data.images.remove(image)
-    return pixels  # row 0 = top
+def render_isolated_with_cycles(scene, keep, world, camera, size, samples, seeds=(1, 2)):
+    """Cycles renders (one per seed) of only the objects in `keep`, with the comparison tool's
+    settings matched to VolPath (addon.compare.cycles_engine.matched_settings: CPU, no denoising or
+    clamping, volume bounces 0) and one ray through each pixel centre; the scene's settings come back
+    afterwards. Returns RGB float64 images, row 0 = top."""
+    from addon.compare import cycles_engine
+
+    hidden = [o for o in scene.objects if o not in keep and not o.hide_render]
+    saved = (scene.world, scene.camera, scene.cycles.filter_width)
+    try:
+        for other in hidden:
+            other.hide_render = True
+        scene.world, scene.camera = world, camera
+        scene.cycles.filter_width = 0.01  # one ray through each pixel centre
+        with cycles_engine.matched_settings(scene, cycles_engine.BounceLimits(), resolution=(size, size)):
+            return [cycles_engine.render_once(scene, samples=samples, seed=seed).image[..., :3].astype(np.float64)
+                    for seed in seeds]
+    finally:
+        for other in hidden:
+            other.hide_render = False
+        scene.world, scene.camera, scene.cycles.filter_width = saved
 
 
 def transmittance_and_emission(medium, origins, dirs, steps=1500):
@@ -248,10 +260,10 @@ def test_absorbing_emitting_volume_matches_cycles(openvdb, tmp_path, clean_scene
     medium = evg.grid_medium_from_volume(exported, warnings)
     assert medium is not None and not warnings, warnings
 
-    assert_cycles_image_matches(obj, medium, tmp_path)
+    assert_cycles_image_matches(obj, medium)
 
 
-def assert_cycles_image_matches(obj, medium, tmp_path, min_absorbed=0.8, min_emitted=0.1):
+def assert_cycles_image_matches(obj, medium, min_absorbed=0.8, min_emitted=0.1):
     """Render `obj` alone with Cycles (orthographic, looking down -Z, white world) and z-test the
     image against the deterministic quadrature of `medium` (see the absorbing/emitting test)."""
     scene = bpy.context.scene
@@ -267,29 +279,10 @@ def assert_cycles_image_matches(obj, medium, tmp_path, min_absorbed=0.8, min_emi
     camera.location = (float(lo[0] + hi[0]) / 2, float(lo[1] + hi[1]) / 2, float(hi[2]) + 2.0)
     camera_data.ortho_scale = float(max(hi[:2] - lo[:2]))
     size = 24
-    render = scene.render
-    settings = (scene.world, scene.camera, render.engine, render.resolution_x, render.resolution_y,
-                render.resolution_percentage, scene.cycles.samples, scene.cycles.filter_width)
     camera_location = np.array(camera.location)  # unrotated: looks down -Z, +Y up
-    # Whatever else the scene holds (the factory cube and lamp...) stays out of this render.
-    hidden = [o for o in scene.objects if o not in (obj, camera) and not o.hide_render]
     try:
-        for other in hidden:
-            other.hide_render = True
-        scene.world, scene.camera, render.engine = world, camera, "CYCLES"
-        render.resolution_x = render.resolution_y = size
-        render.resolution_percentage = 100
-        scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 64, False
-        scene.cycles.filter_width = 0.01  # one ray through each pixel centre
-        render.image_settings.file_format, render.image_settings.color_depth = "OPEN_EXR", "32"
-        scene.view_settings.view_transform = "Standard"
-        first = render_cycles(scene, 1, tmp_path / "c1.exr")
-        second = render_cycles(scene, 2, tmp_path / "c2.exr")
+        first, second = render_isolated_with_cycles(scene, (obj, camera), world, camera, size, samples=64)
     finally:
-        for other in hidden:
-            other.hide_render = False
-        (scene.world, scene.camera, render.engine, render.resolution_x, render.resolution_y,
-         render.resolution_percentage, scene.cycles.samples, scene.cycles.filter_width) = settings
         bpy.data.objects.remove(camera)
         bpy.data.worlds.remove(world)
 
@@ -392,29 +385,9 @@ def test_single_scattering_of_a_sunlit_volume_matches_cycles(openvdb, tmp_path, 
     for new in (sun, camera):
         scene.collection.objects.link(new)
     size = 16
-    render, cycles = scene.render, scene.cycles
-    hidden = [o for o in scene.objects if o not in (obj, camera, sun) and not o.hide_render]
-    saved = (scene.world, scene.camera, render.engine, render.resolution_x, render.resolution_y,
-             render.resolution_percentage, cycles.samples, cycles.filter_width, cycles.volume_bounces,
-             cycles.sample_clamp_direct, cycles.sample_clamp_indirect)
     try:
-        for other in hidden:
-            other.hide_render = True
-        scene.world, scene.camera, render.engine = world, camera, "CYCLES"
-        render.resolution_x = render.resolution_y = size
-        render.resolution_percentage = 100
-        cycles.device, cycles.samples, cycles.use_denoising, cycles.filter_width = "CPU", 128, False, 0.01
-        cycles.volume_bounces, cycles.sample_clamp_direct, cycles.sample_clamp_indirect = 0, 0.0, 0.0
-        render.image_settings.file_format, render.image_settings.color_depth = "OPEN_EXR", "32"
-        scene.view_settings.view_transform = "Standard"
-        first = render_cycles(scene, 1, tmp_path / "s1.exr")
-        second = render_cycles(scene, 2, tmp_path / "s2.exr")
+        first, second = render_isolated_with_cycles(scene, (obj, camera, sun), world, camera, size, samples=128)
     finally:
-        for other in hidden:
-            other.hide_render = False
-        (scene.world, scene.camera, render.engine, render.resolution_x, render.resolution_y,
-         render.resolution_percentage, cycles.samples, cycles.filter_width, cycles.volume_bounces,
-         cycles.sample_clamp_direct, cycles.sample_clamp_indirect) = saved
         for gone in (camera, sun):
             bpy.data.objects.remove(gone)
         bpy.data.worlds.remove(world)
@@ -558,4 +531,4 @@ def test_fire_volume_matches_cycles(openvdb, tmp_path, clean_scene, flame):
     medium = evg.grid_medium_from_volume(exported, warnings)
     assert medium is not None and not warnings, warnings
     assert (medium.emission_grid is not None) and medium.emission_grid.max() > 0.05
-    assert_cycles_image_matches(obj, medium, tmp_path, min_absorbed=0.5, min_emitted=0.3)
+    assert_cycles_image_matches(obj, medium, min_absorbed=0.5, min_emitted=0.3)
