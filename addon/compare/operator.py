@@ -115,11 +115,4 @@ class VOLPATH_OT_compare_with_cycles(bpy.types.Operator):
 CLASSES = (VOLPATH_OT_compare_with_cycles,)
 
 
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)
