@@ -1,0 +1,43 @@
+"""Compilation settings shared by every numba kernel of the renderer, and the per-path random
+numbers in scalar form.
+
+Why numba: the wavefront keeps its shape (queues of paths, Embree queries in bulk between
+stages), but each stage's per-path arithmetic runs as one compiled loop instead of dozens of numpy
+passes with temporaries and gathers -- the numpy version spent ~5x Embree's time on bookkeeping
+(native/README.md, Performance). pbrt-v4's CPU wavefront (src/pbrt/wavefront/) likewise runs each
+stage as a compiled ParallelFor over its queue.
+
+- cache=True: compiled machine code is kept next to the sources (or in NUMBA_CACHE_DIR), so only
+  the first render after an install pays for compilation.
+- nogil=True: kernels release the GIL, so render threads run them in parallel.
+- error_model="numpy": division by zero gives inf/nan like numpy instead of raising, and no
+  per-division checks slow the loops; kernels guard their divisions explicitly.
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+kernel = numba.njit(cache=True, nogil=True, error_model="numpy")
+
+# splitmix64 constants: the same counter-based hash as sampling.uniform (Steele et al. 2014).
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
+_MIX2 = np.uint64(0x94D049BB133111EB)
+_S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
+_INV_2_53 = 1.0 / float(1 << 53)
+
+
+@kernel
+def uniform1(key, dimension):
+    """Uniform float64 in [0, 1) for one path key at one dimension; bit-identical to
+    sampling.uniform(keys, dimension). Every operand is uint64: numba turns uint64 mixed with int64
+    into float64."""
+    z = key ^ (np.uint64(dimension) * _MIX2)
+    z += _GOLDEN
+    z ^= z >> _S30
+    z *= _MIX1
+    z ^= z >> _S27
+    z *= _MIX2
+    z ^= z >> _S31
+    return np.float64(z >> _S11) * _INV_2_53
