@@ -98,6 +98,21 @@ class Accelerator:
         t[prim < 0] = np.inf
         return Hits(t, prim, res["u"], res["v"])
 
+    def intersect_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray) -> Hits:
+        """Closest hits for contiguous float32 rays as the compiled stages use them: t is Embree's
+        float32 tfar (meaningless on a miss: check prim >= 0), no conversions."""
+        n = len(o32)
+        if self._embree is None or n == 0:
+            return Hits(t32.copy(), np.full(n, MISS, np.int32), np.zeros(n, np.float32), np.zeros(n, np.float32))
+        res = self._embree.run(o32, d32, dists=t32.copy(), output=1)
+        return Hits(res["tfar"], res["primID"].astype(np.int32, copy=False), res["u"], res["v"])
+
+    def occluded_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray) -> np.ndarray:
+        """True where something blocks the contiguous float32 ray before t32."""
+        if self._embree is None or len(o32) == 0:
+            return np.zeros(len(o32), dtype=bool)
+        return self._embree.run(o32, d32, dists=t32.copy(), query="OCCLUDED") >= 0
+
     def occluded(self, origins: np.ndarray, directions: np.ndarray, tmax: np.ndarray) -> np.ndarray:
         """True where something blocks the ray before tmax."""
         n = len(origins)

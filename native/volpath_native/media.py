@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .accel import Accelerator
+from .jit import kernel
 from .scene import Scene
 from .vec import norm, sum3
 
@@ -354,4 +355,145 @@ def equiangular_sample(setup, u):
 def equiangular_pdf(setup, t):
     delta, D, ta, tb = setup
     span = np.maximum(tb - ta, 1e-12)
+    return D / (span * (D * D + (t - delta) ** 2))
+
+
+# ---------------------------------------------------------------------------------------------
+# Scalar forms for the compiled kernels: RGB quantities are 3-tuples, one path per call; the
+# estimators are those of the array functions above (same references).
+# ---------------------------------------------------------------------------------------------
+@kernel
+def transmittance1(sigma, distance):
+    """exp(-sigma d) for one channel, with exp(-0 * inf) = 1."""
+    if sigma <= 0.0:
+        return 1.0
+    return np.exp(-sigma * distance)
+
+
+@kernel
+def transmittance3(sigma_t, distance):
+    return (transmittance1(sigma_t[0], distance), transmittance1(sigma_t[1], distance),
+            transmittance1(sigma_t[2], distance))
+
+
+@kernel
+def channel_probabilities1(beta, sigma_s, sigma_t, v0, v1, v2):
+    """Channel pdf ~ |throughput * albedo| plus a uniform share (Cycles volume_sample_channel),
+    restricted to the valid channels v0..v2 (renormalised; all zero if none is valid)."""
+    w0 = abs(beta[0]) * (sigma_s[0] / sigma_t[0] if sigma_t[0] > 0.0 else 0.0)
+    w1 = abs(beta[1]) * (sigma_s[1] / sigma_t[1] if sigma_t[1] > 0.0 else 0.0)
+    w2 = abs(beta[2]) * (sigma_s[2] / sigma_t[2] if sigma_t[2] > 0.0 else 0.0)
+    s = w0 + w1 + w2
+    if s > 0.0:
+        w0, w1, w2 = w0 / s, w1 / s, w2 / s
+    else:
+        w0 = w1 = w2 = 1.0 / 3.0
+    p0 = (0.9 * w0 + 0.1 / 3.0) * v0
+    p1 = (0.9 * w1 + 0.1 / 3.0) * v1
+    p2 = (0.9 * w2 + 0.1 / 3.0) * v2
+    s = p0 + p1 + p2
+    if s <= 0.0:
+        return 0.0, 0.0, 0.0
+    return p0 / s, p1 / s, p2 / s
+
+
+@kernel
+def pick_channel1(p, u):
+    if u < p[0]:
+        return 0
+    if u < p[0] + p[1]:
+        return 1
+    return 2
+
+
+@kernel
+def sample_distance1(sigma_t, p, u_channel, u):
+    """Untruncated exponential free flight with the chosen channel; inf where sigma = 0."""
+    s = sigma_t[pick_channel1(p, u_channel)]
+    return -np.log1p(-u) / s if s > 0.0 else np.inf
+
+
+@kernel
+def distance_pdf1(sigma_t, p, t):
+    """(channel-averaged density at t, survival beyond t, transmittance (3-tuple) at t)."""
+    tr = transmittance3(sigma_t, t)
+    density = p[0] * sigma_t[0] * tr[0] + p[1] * sigma_t[1] * tr[1] + p[2] * sigma_t[2] * tr[2]
+    return density, p[0] * tr[0] + p[1] * tr[1] + p[2] * tr[2], tr
+
+
+@kernel
+def sample_distance_truncated1(sigma_t, p, u_channel, u, t_end):
+    """Exponential restricted to [0, t_end] (t_end may be inf where that channel attenuates)."""
+    s = sigma_t[pick_channel1(p, u_channel)]
+    finite = np.isfinite(t_end)
+    te = t_end if finite else 0.0
+    if s <= 1e-12:
+        return u * te
+    mass = -np.expm1(-s * te) if finite else 1.0
+    return -np.log1p(-u * mass) / s
+
+
+@kernel
+def truncated_distance_pdf1(sigma_t, p, t, t_end):
+    total = 0.0
+    finite = np.isfinite(t_end)
+    for c in range(3):
+        s = sigma_t[c]
+        if finite:
+            optical = s * t_end
+            if optical < 1e-9:
+                density = 1.0 / t_end if t_end > 0.0 else 0.0
+            else:
+                density = s * np.exp(-s * t) / -np.expm1(-optical)
+        else:
+            density = s * np.exp(-s * t)
+        total += p[c] * density
+    return total
+
+
+@kernel
+def emission_integral1(emission, sigma_t, distance):
+    """Integral of emission T(t) over [0, distance] per channel (analytic); unattenuated infinite
+    paths contribute 0 (the world-medium warning covers them)."""
+    out0 = out1 = out2 = 0.0
+    for c in range(3):
+        s = sigma_t[c]
+        if s > 0.0:
+            v = emission[c] * -np.expm1(-s * distance) / s
+        elif np.isfinite(distance):
+            v = emission[c] * distance
+        else:
+            v = 0.0
+        if c == 0:
+            out0 = v
+        elif c == 1:
+            out1 = v
+        else:
+            out2 = v
+    return out0, out1, out2
+
+
+@kernel
+def equiangular_setup1(o, d, t_end, light):
+    """(delta, D, theta_a, theta_b) of Kulla & Fajardo's equiangular sampling toward `light`."""
+    delta = (light[0] - o[0]) * d[0] + (light[1] - o[1]) * d[1] + (light[2] - o[2]) * d[2]
+    cx = light[0] - (o[0] + d[0] * delta)
+    cy = light[1] - (o[1] + d[1] * delta)
+    cz = light[2] - (o[2] + d[2] * delta)
+    D = max(np.sqrt(cx * cx + cy * cy + cz * cz), 1e-7)
+    theta_a = np.arctan2(-delta, D)
+    theta_b = np.arctan2(t_end - delta, D) if np.isfinite(t_end) else 0.5 * np.pi
+    return delta, D, theta_a, theta_b
+
+
+@kernel
+def equiangular_sample1(setup, u):
+    delta, D, ta, tb = setup
+    return delta + D * np.tan(ta + u * (tb - ta))
+
+
+@kernel
+def equiangular_pdf1(setup, t):
+    delta, D, ta, tb = setup
+    span = max(tb - ta, 1e-12)
     return D / (span * (D * D + (t - delta) ** 2))

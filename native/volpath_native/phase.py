@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sampling import local_to_world
+from .jit import kernel
+from .sampling import local_to_world, local_to_world1
 
 INV_4PI = 1.0 / (4.0 * np.pi)
 
@@ -60,3 +61,27 @@ def hg_mixture_sample(directions: np.ndarray, probabilities: np.ndarray, g: np.n
 
 def _cosine(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
+# ---------------------------------------------------------------------------------------------
+# Scalar forms for the compiled kernels
+# ---------------------------------------------------------------------------------------------
+@kernel
+def hg_eval1(g, cos_theta):
+    denom = 1.0 + g * g - 2.0 * g * cos_theta
+    return INV_4PI * (1.0 - g * g) / (denom * np.sqrt(max(denom, 1e-30)))
+
+
+@kernel
+def hg_sample1(d0, d1, d2, g, u1, u2):
+    """One HG direction around the travel direction d; returns (x, y, z, pdf)."""
+    if abs(g) < 1e-3:
+        cos_t = 1.0 - 2.0 * u1
+    else:
+        sq = (1.0 - g * g) / (1.0 - g + 2.0 * g * u1)
+        cos_t = (1.0 + g * g - sq * sq) / (2.0 * g)
+    cos_t = min(max(cos_t, -1.0), 1.0)
+    sin_t = np.sqrt(max(1.0 - cos_t * cos_t, 0.0))
+    phi = 2.0 * np.pi * u2
+    x, y, z = local_to_world1(d0, d1, d2, sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t)
+    return x, y, z, hg_eval1(g, cos_t)

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .jit import kernel
+
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
 _MIX2 = np.uint64(0x94D049BB133111EB)
@@ -151,3 +153,27 @@ def concentric_disk(u1: np.ndarray, u2: np.ndarray):
 def choose_by_cdf(cdf: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Index i with cdf[i-1] <= u < cdf[i] (cdf ascending, last entry 1)."""
     return np.minimum(np.searchsorted(cdf, u, side="right"), len(cdf) - 1)
+
+
+# ---------------------------------------------------------------------------------------------
+# Scalar forms for the compiled kernels (one path at a time; same maps as above)
+# ---------------------------------------------------------------------------------------------
+@kernel
+def local_to_world1(n0, n1, n2, x, y, z):
+    """x t + y s + z n for one unit normal n, with the basis of orthonormal_basis."""
+    sign = 1.0 if n2 >= 0.0 else -1.0
+    a = -1.0 / (sign + n2)
+    b = n0 * n1 * a
+    return ((1.0 + sign * n0 * n0 * a) * x + b * y + n0 * z,
+            sign * b * x + (sign + n1 * n1 * a) * y + n1 * z,
+            -sign * n0 * x - n1 * y + n2 * z)
+
+
+@kernel
+def cosine_hemisphere1(n0, n1, n2, u1, u2):
+    """Cosine-weighted direction around a unit normal; returns (x, y, z, cos_theta)."""
+    r = np.sqrt(u1)
+    phi = 2.0 * np.pi * u2
+    z = np.sqrt(max(1.0 - u1, 0.0))
+    wx, wy, wz = local_to_world1(n0, n1, n2, r * np.cos(phi), r * np.sin(phi), z)
+    return wx, wy, wz, z
