@@ -175,15 +175,24 @@ def install_legacy(blender: str, version) -> None:
     modules = addons / "modules"
     modules.mkdir(parents=True, exist_ok=True)
     _run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--upgrade", "--target", modules, *wheels])
-    # Enable and save the preferences so that later `blender -b FILE -E VOLPATH` runs find it.
+    # Enable and save the preferences so that later `blender -b FILE -E VOLPATH` runs find it, and
+    # compile a trivial numba function there: llvmlite must work inside this Blender process.
     out = _blender_python(blender, (
         "import addon_utils, bpy\n"
         f"addon_utils.enable('{LEGACY_MODULE}', default_set=True, persistent=True, handle_error=None)\n"
         f"assert '{LEGACY_MODULE}' in bpy.context.preferences.addons, 'add-on did not enable'\n"
         "bpy.ops.wm.save_userpref()\n"
+        "import numba\n"
+        "assert numba.njit(lambda x: x + 1)(1) == 2\n"
+        "print('VOLPATH_NUMBA=' + numba.__version__ + ' ' + numba.__file__)\n"
         "print('VOLPATH_ENABLED')"))
     if "VOLPATH_ENABLED" not in out:
         raise BuildError(f"enabling the add-on failed:\n{out[-3000:]}")
+    numba_found = re.search(r"VOLPATH_NUMBA=(\S+) (.+)", out)
+    if numba_found and Path(numba_found.group(2).strip()).resolve().parents[1] != modules.resolve():
+        # Blender's Python searches its own site-packages (e.g. Debian's python3-numba) first.
+        print(f"warning: this Blender imports numba {numba_found.group(1)} from "
+              f"{numba_found.group(2).strip()}, not the bundled one in {modules}", file=sys.stderr)
     print(f"installed the legacy add-on '{LEGACY_MODULE}' into {addons} (Blender {version[0]}.{version[1]})")
 
 

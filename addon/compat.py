@@ -150,3 +150,36 @@ def volume_scatter_phase(node) -> str:
 def render_world(view_layer, scene):
     """The world Cycles renders: View Layer > Override > World (Blender 4.2+), else the scene's."""
     return getattr(view_layer, "world_override", None) or scene.world
+
+
+def use_per_user_kernel_cache() -> str | None:
+    """Point numba's cache of compiled render kernels (volpath_native's @kernel functions,
+    cache=True) at a writable per-user folder, and return it.
+
+    numba's default is the renderer's own folder, which an installed add-on may not be allowed to
+    write (a read-only system repository), and which Blender clears on every extension upgrade.
+    Must run before volpath_native is imported: numba picks a function's cache folder when the
+    function is defined. Left alone (None): a NUMBA_CACHE_DIR the user set, and the repository
+    checkout (`import addon`: tests, scripts), whose cache stays next to native/'s sources and is
+    shared with the CLI and the native tests. NUMBA_CACHE_DIR is process-wide: another add-on's
+    numba caches land there too, which is harmless (entries are keyed by source path)."""
+    package = __package__ or ""
+    if os.environ.get("NUMBA_CACHE_DIR") or package == "addon" or "volpath_native" in sys.modules:
+        return None
+    try:
+        if package.startswith("bl_ext.") and hasattr(bpy.utils, "extension_path_user"):  # 4.2+
+            folder = bpy.utils.extension_path_user(package, path="numba", create=True)
+        else:  # legacy add-on (Blender < 4.2 has no per-extension folder and no CACHE resource)
+            folder = bpy.utils.user_resource("DATAFILES", path="volpath/numba", create=True)
+    except (OSError, ValueError) as error:  # numba then falls back to ~/.cache/numba itself
+        print(f"VolPath: no per-user folder for compiled kernels ({error})")
+        return None
+    os.environ["NUMBA_CACHE_DIR"] = folder
+    if "numba" in sys.modules:  # imported by another add-on: its config was read already
+        sys.modules["numba"].core.config.reload_config()
+    return folder
+
+
+# compat is the first module the add-on package imports (addon/__init__.py), so this runs before
+# anything imports the renderer and defines its kernels.
+use_per_user_kernel_cache()

@@ -14,6 +14,9 @@ import numpy as np
 from . import compat
 
 
+_kernels_ready = False  # volpath_native.warm_up() has run in this Blender session
+
+
 class VolpathRenderEngine(bpy.types.RenderEngine):
     bl_idname = "VOLPATH"
     bl_label = "VolPath"
@@ -32,6 +35,8 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             return
         from .export import export_scene
 
+        if not self._prepare_kernels(vp):
+            return
         started = time.perf_counter()
         try:
             scene, warnings = export_scene(depsgraph, camera_object=self.camera_override)
@@ -84,6 +89,24 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         self.end_result(result)
         done = "cancelled" if output.cancelled else "done"
         self.update_stats("", f"VolPath | {done}: {output.samples}/{total} samples in {output.seconds:.1f} s")
+
+    def _prepare_kernels(self, vp) -> bool:
+        """Compile the renderer's numba kernels, or load them from numba's on-disk cache, once per
+        Blender session and before the render clock starts. Compiling after an install takes tens
+        of seconds, hence the status text. Returns False (error reported) if that fails."""
+        global _kernels_ready
+        warm_up = getattr(vp, "warm_up", None)
+        if _kernels_ready or warm_up is None:
+            return True
+        self.update_stats("", "VolPath | Compiling render kernels (first render only)")
+        try:
+            warm_up()
+        except Exception as error:
+            traceback.print_exc()
+            self._fail(f"VolPath could not compile its render kernels: {type(error).__name__}: {error}")
+            return False
+        _kernels_ready = True
+        return True
 
     def cancel_requested(self) -> bool:
         """Esc in Blender (polled by the renderer several times a second)."""

@@ -168,14 +168,36 @@ def test_installed_in_blender_renders_headless(tmp_path):
 
 
 _EXTENSION_SCRIPT = textwrap.dedent('''
-    import math, sys, bpy
+    import importlib.machinery, os, pathlib, sys, sysconfig
     zip_path, out_path = sys.argv[1], sys.argv[2]
+
+    # The packages the extension bundles must come from its wheels, as in a real Blender whose
+    # Python has none of them: never from this venv (bpy, numpy and the rest still do).
+    BUNDLED = {"numba", "llvmlite", "embreex", "volpath_native"}
+    VENV_SITE = os.path.realpath(sysconfig.get_paths()["purelib"])
+
+    class WithoutVenvCopies:
+        @staticmethod
+        def find_spec(name, path=None, target=None):
+            if path is not None or name not in BUNDLED:
+                return None
+            elsewhere = [p for p in sys.path if os.path.realpath(p) != VENV_SITE]
+            spec = importlib.machinery.PathFinder.find_spec(name, elsewhere)
+            if spec is None:
+                raise ModuleNotFoundError(f"{name} is not in the extension's wheels", name=name)
+            return spec
+
+    sys.meta_path.insert(0, WithoutVenvCopies)
+    import bpy, numpy as np
     result = bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default",
                                                       enable_on_install=True)
     assert result == {"FINISHED"}, result
     assert "bl_ext.user_default.volpath" in bpy.context.preferences.addons
-    import volpath_native
-    assert "/extensions/" in volpath_native.__file__, volpath_native.__file__  # from the wheel
+    cache = pathlib.Path(os.environ["NUMBA_CACHE_DIR"])  # set by the add-on before the renderer loads
+    assert "/extensions/.user/user_default/volpath/" in str(cache), cache
+    import embreex, llvmlite, numba, volpath_native
+    for module in (volpath_native, embreex, numba, llvmlite):
+        assert "/extensions/" in module.__file__, module.__file__
     sc = bpy.context.scene
     sc.render.engine = "VOLPATH"
     sc.render.resolution_x = sc.render.resolution_y = 16
@@ -183,18 +205,22 @@ _EXTENSION_SCRIPT = textwrap.dedent('''
     sc.render.image_settings.file_format = "OPEN_EXR"
     sc.render.filepath = out_path
     bpy.ops.render.render(write_still=True)
+    from volpath_native.jit import uniform1
+    assert 0.0 <= uniform1(np.uint64(7), 1) < 1.0  # compiled by the bundled numba, cached per user
+    assert list(cache.rglob("*.nbi")), "numba wrote no cache index into " + str(cache)
 ''')
 
 
 def test_extension_installs_and_renders_in_blender_5(extension_zip, tmp_path):
     """The zip installed the way Blender 4.2+ does (Extensions > Install from Disk) into a
     temporary user config of the bpy module: wheels land in Blender's extension site-packages,
-    the add-on enables as bl_ext.user_default.volpath, and F12 renders the default scene."""
+    the add-on enables as bl_ext.user_default.volpath, and F12 renders the default scene.
+    numba, llvmlite and embreex must come from the extension's wheels, numba's cache from the
+    add-on's per-user folder."""
     home = tmp_path / "home"
     env = dict(os.environ, HOME=str(home), BLENDER_USER_CONFIG=str(home / "config"),
                BLENDER_USER_SCRIPTS=str(home / "scripts"), BLENDER_USER_EXTENSIONS=str(home / "extensions"))
-    # Only the venv's site-packages (bpy, numpy, embreex) without the editable volpath_native.
-    env["PYTHONNOUSERSITE"] = "1"
+    env.pop("NUMBA_CACHE_DIR", None)
     script = tmp_path / "install.py"
     script.write_text(_EXTENSION_SCRIPT)
     out = tmp_path / "default.exr"
