@@ -22,14 +22,18 @@ Tracking follows Cycles' null-scattering path (intern/cycles/kernel/integrator/s
 volume_null_event_coefficients / volume_scatter_probability: a scalar majorant = max channel,
 scatter-vs-null decision with throughput-weighted channel pdf, absorption never sampled but carried
 in the weights) and pbrt-v4's SampleT_maj / DDAMajorantIterator (src/pbrt/media.h) for walking the
-majorant grid cell by cell. Everything is vectorised over batches of rays (SoA arrays); the only
-Python loop is over tracking *events*, with finished rays compacted away.
+majorant grid cell by cell. Lookups and tracking run per ray in compiled numba kernels
+(grid_kernels, on the arrays of `GridMedium.tables`), which the integrator's kernels call directly;
+the methods below are loops over those kernels for numpy callers.
 
 Using it from a path tracer (all distances from the segment origin, directions unit length):
 - free flight on a segment [0, t_seg]: `f = medium.sample_free_flight(o, d, t_seg, rng, beta)`;
   add `beta * f.emission` to L; multiply beta by `f.weight`; where `f.scattered`, the path
   scatters at `o + d * f.t` with the medium's HG phase `g` (f.weight already holds sigma_s/pdf).
 - shadow rays: multiply by `medium.transmittance(o, d, dist, rng)`.
+- inside a numba kernel, per ray: `grid_kernels.grid_free_flight(G, ...)`,
+  `grid_transmittance(G, ...)` and `grid_scattering(G, x, y, z)` with `G = medium.tables`, random
+  numbers from (key, stream); check `G.flags` afterwards with `medium.check_flags(G)`.
 - a homogeneous medium overlapping the grid: sample its distance analytically first and track
   the grid only up to it (the earlier of two independent collision processes is the first event
   of their sum); shadow transmittances multiply.
@@ -38,10 +42,11 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import Optional
 
 import numpy as np
 
+from .grid_kernels import (FLAG_MAJORANT, FLAG_MINORANT, FLAG_OVERFLOW, STREAM_DIMENSIONS, GridTables,
+                           box_interval_many, coefficients_many, dda_cells1, density_many, track_many)
 from .scene import Mesh, SceneError, rgb
 
 __all__ = ["GridMedium", "FreeFlight", "MajorantTooLowError", "principled_volume_coefficients",
@@ -239,6 +244,9 @@ class GridMedium:
                                      clamp=False)
         self.majorant_resolution = int(majorant_resolution)
         self._build_majorant_grid(self.majorant_resolution)
+        # What the kernels record when called through `tables` (bound violations, stream overflows).
+        self._flags = np.zeros(3, dtype=np.int64)
+        self._violation = np.zeros((2, 5))
 
     # ------------------------------------------------------------------------------------------
     # Construction helpers
@@ -385,262 +393,141 @@ class GridMedium:
         return int(sum(a.nbytes for a in arrays if a is not None))
 
     # ------------------------------------------------------------------------------------------
-    # Lookups
+    # Tables for the compiled kernels (grid_kernels)
     # ------------------------------------------------------------------------------------------
-    def _to_index(self, points):
-        points = np.asarray(points, dtype=np.float64)
-        return points @ self.world_to_index[:3, :3].T + self.world_to_index[:3, 3]
+    @property
+    def tables(self) -> GridTables:
+        """The arrays and scalars grid_kernels' functions take, in the layouts they are compiled for.
 
-    def _corners(self, p_index):
-        """Flat indices (M,8) and trilinear weights (M,8) for index-space points (M,3).
-        Points outside the padded box get weight 0 (the background)."""
-        _, ny, nz = self.shape
-        inside = np.all((p_index >= 0) & (p_index <= self.shape - 1), axis=1)
-        base = np.clip(np.floor(p_index), 0, self.shape - 2)
-        frac = np.where(inside[:, None], p_index - base, 0.0)
-        base = base.astype(np.int64)
-        flat = (base[:, 0] * ny + base[:, 1]) * nz + base[:, 2]
-        offsets = np.array([(dx * ny + dy) * nz + dz for dx in (0, 1) for dy in (0, 1) for dz in (0, 1)])
-        idx = flat[:, None] + offsets[None, :]
-        fx, fy, fz = frac[:, 0:1], frac[:, 1:2], frac[:, 2:3]
-        wx = np.concatenate([1 - fx, fx], axis=1)
-        wy = np.concatenate([1 - fy, fy], axis=1)
-        wz = np.concatenate([1 - fz, fz], axis=1)
-        weights = (wx[:, :, None, None] * wy[:, None, :, None] * wz[:, None, None, :]).reshape(-1, 8)
-        weights *= inside[:, None]
-        return idx, weights
+        The arrays are the medium's own (no copies): edits of majorant_grid etc. in place show
+        through. tables.flags / tables.violation are this medium's shared bound-violation and
+        stream-overflow record (see grid_kernels); `check_flags(tables)` turns it into errors."""
+        no_grid = self._NO_GRID
+        return GridTables(
+            density=self.density,
+            scatter_grid=self.scatter_grid if self.scatter_grid is not None else no_grid,
+            absorb_grid=self.absorb_grid if self.absorb_grid is not None else no_grid,
+            emission_grid=self.emission_grid if self.emission_grid is not None else no_grid,
+            has_color=self.scatter_grid is not None,
+            has_emission_grid=self.emission_grid is not None,
+            has_emission=bool(np.any(self.emission != 0)),
+            world_to_index=np.ascontiguousarray(self.world_to_index[:3], dtype=np.float64),
+            shape=self.shape,
+            sigma_s=self.sigma_s, sigma_a=self.sigma_a, emission=self.emission,
+            majorant=self.majorant_grid, minorant=self.minorant_rgb, residual_rate=self.residual_rate,
+            cell_shape=self.majorant_shape,
+            index_to_cell=self.majorant_shape / (self.shape - 1).astype(np.float64),
+            g=self.g,
+            flags=self._flags, violation=self._violation)
 
-    @staticmethod
-    def _interpolate(grid, idx, weights):
-        flat = grid.reshape((-1,) + grid.shape[3:])
-        values = flat[idx]  # (M,8) or (M,8,C)
-        if values.ndim == 2:
-            return np.einsum("mk,mk->m", values, weights)
-        return np.einsum("mkc,mk->mc", values, weights)
+    _NO_GRID = np.zeros((1, 1, 1, 3), dtype=np.float32)
 
+    def _call_tables(self) -> GridTables:
+        """Tables with a fresh violation record, private to one numpy-facing call."""
+        return self.tables._replace(flags=np.zeros(3, dtype=np.int64), violation=np.zeros((2, 5)))
+
+    def check_flags(self, tables: GridTables) -> None:
+        """Report what the kernels recorded in tables.flags: bound violations raise
+        MajorantTooLowError in debug mode (unchecked otherwise, as the bounds are conservative by
+        construction); rays that ran out of random dimensions warn (their weight is 0: biased)."""
+        flags, violation = tables.flags, tables.violation
+        if flags[FLAG_OVERFLOW]:
+            warnings.warn(f"grid medium '{self.name}': {int(flags[FLAG_OVERFLOW])} rays needed more than "
+                          f"{STREAM_DIMENSIONS} random numbers and were stopped (weight 0)", RuntimeWarning)
+        if not self.debug:
+            return
+        if flags[FLAG_MAJORANT]:
+            value, bound, *point = violation[FLAG_MAJORANT]
+            raise MajorantTooLowError(
+                f"grid medium '{self.name}': sigma_t {value:.6g} exceeds the majorant {bound:.6g} at {point} "
+                f"({int(flags[FLAG_MAJORANT])} points): tracking is biased")
+        if flags[FLAG_MINORANT]:
+            value, bound, *point = violation[FLAG_MINORANT]
+            raise MajorantTooLowError(
+                f"grid medium '{self.name}': sigma_t {value:.6g} is below the minorant {bound:.6g} at {point} "
+                f"({int(flags[FLAG_MINORANT])} points): residual tracking is biased")
+
+    # ------------------------------------------------------------------------------------------
+    # Lookups (loops over the scalar kernels)
+    # ------------------------------------------------------------------------------------------
     def density_at(self, points_world) -> np.ndarray:
         """(M,) interpolated density at world points (M,3)."""
-        idx, w = self._corners(self._to_index(points_world))
-        return self._interpolate(self.density, idx, w)
+        points = _points(points_world)
+        out = np.empty(len(points))
+        density_many(self.tables, points, out)
+        return out
 
     def coefficients(self, points_world):
         """(sigma_s, sigma_t, emission), each (M,3) float64, at world points (M,3)."""
-        p = self._to_index(points_world)
-        idx, w = self._corners(p)
-        rho = self._interpolate(self.density, idx, w)[:, None]
-        if self.scatter_grid is not None:
-            sigma_s = rho * self._interpolate(self.scatter_grid, idx, w) * self.sigma_s
-            sigma_a = rho * self._interpolate(self.absorb_grid, idx, w) * self.sigma_a
-        else:
-            sigma_s = rho * self.sigma_s
-            sigma_a = rho * self.sigma_a
-        emission = np.zeros_like(sigma_s)
-        if np.any(self.emission != 0):
-            # Constant emission fills the padded box (Cycles' volume bounds, see the class doc).
-            inside = np.all((p >= 0) & (p <= self.shape - 1), axis=1)
-            emission += inside[:, None] * self.emission
-        if self.emission_grid is not None:
-            emission += self._interpolate(self.emission_grid, idx, w)
-        return sigma_s, sigma_s + sigma_a, emission
+        points = _points(points_world)
+        sigma_s, sigma_t, emission = (np.empty((len(points), 3)) for _ in range(3))
+        coefficients_many(self.tables, points, sigma_s, sigma_t, emission)
+        return sigma_s, sigma_t, emission
 
     # ------------------------------------------------------------------------------------------
-    # DDA over majorant cells (pbrt-v4 DDAMajorantIterator, src/pbrt/media.h), vectorised
+    # DDA and tracking (loops over the scalar kernels)
     # ------------------------------------------------------------------------------------------
-    def _dda_setup(self, origins, dirs, t_min, t_max):
-        """State of a DDA per ray, in majorant-grid coordinates ([0, R] per axis)."""
-        n = len(origins)
-        to_grid = self.majorant_shape / (self.shape - 1)
-        o = self._to_index(origins) * to_grid
-        d = (np.asarray(dirs, dtype=np.float64) @ self.world_to_index[:3, :3].T) * to_grid
-        t_min = np.broadcast_to(np.asarray(t_min, dtype=np.float64), (n,))
-        t_max = np.broadcast_to(np.asarray(t_max, dtype=np.float64), (n,))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            inv_d = 1.0 / d
-            t0 = (0.0 - o) * inv_d
-            t1 = (self.majorant_shape - o) * inv_d
-        parallel = d == 0.0
-        inside_slab = (o >= 0) & (o <= self.majorant_shape)
-        t_near = np.where(parallel, np.where(inside_slab, -np.inf, np.inf), np.minimum(t0, t1))
-        t_far = np.where(parallel, np.where(inside_slab, np.inf, -np.inf), np.maximum(t0, t1))
-        t_enter = np.maximum(t_near.max(axis=1), t_min)
-        t_exit = np.minimum(t_far.min(axis=1), t_max)
-        active = t_enter < t_exit
-        t_enter = np.where(active, t_enter, t_exit)
-        p_enter = o + d * t_enter[:, None]
-        voxel = np.clip(np.floor(p_enter), 0, self.majorant_shape - 1).astype(np.int64)
-        positive = d > 0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            next_boundary = np.where(positive, voxel + 1, voxel).astype(np.float64)
-            next_t = np.where(parallel, np.inf, t_enter[:, None] + (next_boundary - p_enter) * inv_d)
-            delta_t = np.where(parallel, np.inf, np.abs(inv_d))
-        step = np.where(positive, 1, -1)
-        return _DDAState(voxel, next_t, delta_t, step, t_enter.copy(), t_exit, active)
-
     def dda_cells(self, origin, direction, t_min=0.0, t_max=np.inf):
         """Majorant cells a single ray visits, in order, with their [t0, t1) intervals: a list of
-        ((i, j, k), t0, t1). For tests and debugging; the trackers run the same stepping batched."""
-        state = self._dda_setup(np.atleast_2d(origin), np.atleast_2d(direction), t_min, t_max)
-        visits = []
-        while state.active[0]:
-            cell_end = min(state.next_t[0].min(), state.t_exit[0])
-            visits.append((tuple(int(v) for v in state.voxel[0]), float(state.t[0]), float(cell_end)))
-            state.advance(np.array([0]), self.majorant_shape)
-        return visits
+        ((i, j, k), t0, t1). For tests and debugging; the trackers run the same stepping."""
+        o, d = _points(np.atleast_2d(origin))[0], _points(np.atleast_2d(direction))[0]
+        limit = int(self.majorant_shape.sum()) + 3  # a straight line crosses each plane at most once
+        cells, spans = np.empty((limit, 3), dtype=np.int64), np.empty((limit, 2))
+        count = dda_cells1(self.tables, o[0], o[1], o[2], d[0], d[1], d[2], float(t_min), float(t_max),
+                           cells, spans)
+        return [(tuple(int(v) for v in cells[i]), float(spans[i, 0]), float(spans[i, 1])) for i in range(count)]
 
-    def _majorant_of(self, voxel):
-        return self.majorant_grid[voxel[:, 0], voxel[:, 1], voxel[:, 2]]
-
-    def _check_majorant(self, sigma_t, majorant, points):
-        excess = sigma_t.max(axis=1) > majorant * (1.0 + 1e-4) + 1e-7
-        if np.any(excess):
-            i = int(np.flatnonzero(excess)[0])
-            raise MajorantTooLowError(
-                f"grid medium '{self.name}': sigma_t {sigma_t[i].max():.6g} exceeds the majorant "
-                f"{majorant[i]:.6g} at {points[i].tolist()} ({int(excess.sum())} points): tracking is biased")
-
-    def _check_minorant(self, sigma_t, minorant, points):
-        below = np.any(sigma_t < minorant * (1.0 - 1e-4) - 1e-7, axis=1)
-        if np.any(below):
-            i = int(np.flatnonzero(below)[0])
-            raise MajorantTooLowError(
-                f"grid medium '{self.name}': sigma_t {sigma_t[i].tolist()} is below the minorant "
-                f"{minorant[i].tolist()} at {points[i].tolist()}: residual tracking is biased")
-
-    # ------------------------------------------------------------------------------------------
-    # Tracking
-    # ------------------------------------------------------------------------------------------
-    def _track(self, origins, dirs, t_min, t_max, rng, on_collision, rate_grid=None, control=None):
-        """Walk majorant cells and sample tentative collisions (exponential with the cell's rate,
-        restarted at each cell boundary: memorylessness keeps it exact). `on_collision(rays, points,
-        t, rate, cells)` returns a bool mask of rays whose tracking stops there.
-
-        rate_grid: per-cell sampling rate (default: the majorant). control: optional
-        (control_grid (R,R,R,3), depth (N,3)): accumulates each ray's control optical depth, the
-        integral of the piecewise-constant control_grid along its walk."""
-        origins = np.asarray(origins, dtype=np.float64)
-        dirs = np.asarray(dirs, dtype=np.float64)
-        rate_grid = self.majorant_grid if rate_grid is None else rate_grid
-        state = self._dda_setup(origins, dirs, t_min, t_max)
-        rays = np.flatnonzero(state.active)
-        state = state.subset(rays)
-        rate_flat = rate_grid.ravel()
-        control_flat = control[0].reshape(-1, 3) if control is not None else None
-        _, ry, rz = self.majorant_shape
-        while len(rays):
-            cells = state.voxel
-            cell_index = (cells[:, 0] * ry + cells[:, 1]) * rz + cells[:, 2]
-            rate = rate_flat[cell_index]
-            axis = np.argmin(state.next_t, axis=1)
-            crossing = state.next_t[np.arange(len(rays)), axis]
-            cell_end = np.minimum(crossing, state.t_exit)
-            with np.errstate(divide="ignore"):
-                step = -np.log1p(-rng.random(len(rays))) / rate
-            t_candidate = state.t + step
-            collided = t_candidate < cell_end
-            if control is not None:
-                reached = np.where(collided, t_candidate, cell_end)
-                control[1][rays] += control_flat[cell_index] * (reached - state.t)[:, None]
-            stopped = np.zeros(len(rays), dtype=bool)
-            if np.any(collided):
-                c = np.flatnonzero(collided)
-                state.t[c] = t_candidate[c]
-                points = origins[rays[c]] + dirs[rays[c]] * t_candidate[c, None]
-                stopped[c] = on_collision(rays[c], points, t_candidate[c], rate[c], cells[c])
-            moving = np.flatnonzero(~collided)
-            state.advance(moving, self.majorant_shape, axis[moving], crossing[moving])
-            keep = state.active & ~stopped
-            if not keep.all():  # compact only when some rays finished
-                rays = rays[keep]
-                state = state.subset(np.flatnonzero(keep))
+    def _run_tracking(self, origins, dirs, t_min, t_max, rng, mode, throughput=None):
+        origins, dirs = _points(origins), _points(dirs)
+        n = len(origins)
+        t_min = np.ascontiguousarray(np.broadcast_to(np.asarray(t_min, dtype=np.float64), (n,)))
+        t_max = np.ascontiguousarray(np.broadcast_to(np.asarray(t_max, dtype=np.float64), (n,)))
+        throughput = np.ones((n, 3)) if throughput is None else _points(throughput)
+        # One key per ray from the caller's generator, stream 0: reproducible for a generator state.
+        keys = rng.integers(0, 2 ** 63, n, dtype=np.int64).astype(np.uint64)
+        t_out, scattered = np.empty(n), np.empty(n, dtype=np.bool_)
+        weight, emission = np.empty((n, 3)), np.empty((n, 3))
+        tables = self._call_tables()
+        track_many(tables, origins, dirs, t_min, t_max, keys, 0, mode, throughput, t_out, scattered, weight,
+                   emission)
+        self.check_flags(tables)
+        return FreeFlight(t_out, scattered, weight, emission)
 
     def sample_free_flight(self, origins, dirs, t_max, rng: np.random.Generator, throughput=None,
                            t_min=0.0) -> FreeFlight:
-        """Delta tracking with null collisions along N rays on [t_min, t_max].
+        """Delta tracking with null collisions along N rays on [t_min, t_max]
+        (grid_kernels.grid_free_flight per ray).
 
         origins, dirs: (N,3) world space, dirs unit length; t_max: (N,) or scalar (may be inf).
         throughput: optional (N,3) current path throughput, for the channel pdf of the
             scatter-vs-null decision (Cycles: volume_sample_channel_pdf of albedo x throughput).
-        rng: numpy Generator; results are reproducible for a given generator state and batch.
+        rng: numpy Generator (one key per ray is drawn from it); results are reproducible for a
+            given generator state and batch.
         """
-        n = len(origins)
-        t_max = np.broadcast_to(np.asarray(t_max, dtype=np.float64), (n,)).copy()
-        channel_weight = np.ones((n, 3)) if throughput is None else np.abs(np.asarray(throughput, dtype=np.float64))
-        t_event = t_max.copy()
-        scattered = np.zeros(n, dtype=bool)
-        weight = np.ones((n, 3))
-        emitted = np.zeros((n, 3))
-
-        def on_collision(rays, points, t, majorant, cells):
-            sigma_s, sigma_t, emission = self.coefficients(points)
-            if self.debug:
-                self._check_majorant(sigma_t, majorant, points)
-            emitted[rays] += weight[rays] * emission / majorant[:, None]
-            sigma_n = np.maximum(majorant[:, None] - sigma_t, 0.0)
-            sigma_c = sigma_s + sigma_n
-            with np.errstate(divide="ignore", invalid="ignore"):
-                albedo = np.where(sigma_t > 0, sigma_s / sigma_t, 1.0)
-                channel_pdf = channel_weight[rays] * albedo
-                total = channel_pdf.sum(axis=1, keepdims=True)
-                channel_pdf = np.where(total > 0, channel_pdf / total, 1.0 / 3.0)
-                prob_scatter = (np.where(sigma_c > 0, sigma_s / sigma_c, 0.0) * channel_pdf).sum(axis=1)
-            scatter = rng.random(len(rays)) < prob_scatter
-            s, m = np.flatnonzero(scatter), np.flatnonzero(~scatter)
-            weight[rays[s]] *= sigma_s[s] / (majorant[s, None] * prob_scatter[s, None])
-            weight[rays[m]] *= sigma_n[m] / (majorant[m, None] * (1.0 - prob_scatter[m, None]))
-            scattered[rays[s]] = True
-            t_event[rays[s]] = t[s]
-            dead = ~np.any(weight[rays] > 0, axis=1)
-            return scatter | dead
-
-        self._track(origins, dirs, t_min, t_max, rng, on_collision)
-        return FreeFlight(t_event, scattered, weight, emitted)
+        return self._run_tracking(origins, dirs, t_min, t_max, rng, 0, throughput)
 
     def transmittance(self, origins, dirs, t_max, rng: np.random.Generator, t_min=0.0,
                       residual: bool = True) -> np.ndarray:
         """(N,3) unbiased estimate of the transmittance along [t_min, t_max].
 
-        residual=True (default): residual ratio tracking (Novak et al. 2014) with the per-cell
-        minorant as control: T = exp(-control depth) x prod(1 - (sigma_t - minorant) / rate), rate =
-        the cell's largest residual bound; fewer lookups and lower variance where the density is
-        smooth, exact where it is constant. residual=False: plain ratio tracking against the
-        majorant, prod(1 - sigma_t / majorant) (Cycles' null_event_coefficients). Every factor is
-        in [0, 1] per channel; shadow rays stop when all channels reach 0."""
-        n = len(origins)
-        result = np.ones((n, 3))
-        if residual:
-            control_depth = np.zeros((n, 3))
-
-            def on_collision(rays, points, t, rate, cells):
-                _, sigma_t, _ = self.coefficients(points)
-                control = self.minorant_rgb[cells[:, 0], cells[:, 1], cells[:, 2]]
-                if self.debug:
-                    self._check_majorant(sigma_t - control, rate, points)
-                    self._check_minorant(sigma_t, control, points)
-                result[rays] *= np.maximum(1.0 - (sigma_t - control) / rate[:, None], 0.0)
-                return ~np.any(result[rays] > 0, axis=1)
-
-            self._track(origins, dirs, t_min, t_max, rng, on_collision, rate_grid=self.residual_rate,
-                        control=(self.minorant_rgb, control_depth))
-            return result * np.exp(-control_depth)
-
-        def on_collision(rays, points, t, majorant, cells):
-            _, sigma_t, _ = self.coefficients(points)
-            if self.debug:
-                self._check_majorant(sigma_t, majorant, points)
-            result[rays] *= np.maximum(1.0 - sigma_t / majorant[:, None], 0.0)
-            return ~np.any(result[rays] > 0, axis=1)
-
-        self._track(origins, dirs, t_min, t_max, rng, on_collision)
-        return result
+        residual=True (default, grid_kernels.grid_transmittance): residual ratio tracking (Novak et
+        al. 2014) with the per-cell minorant as control: T = exp(-control depth) x prod(1 - (sigma_t
+        - minorant) / rate), rate = the cell's largest residual bound; fewer lookups and lower
+        variance where the density is smooth, exact where it is constant. residual=False: plain
+        ratio tracking against the majorant, prod(1 - sigma_t / majorant) (Cycles'
+        null_event_coefficients). Every factor is in [0, 1] per channel; shadow rays stop when all
+        channels reach 0."""
+        return self._run_tracking(origins, dirs, t_min, t_max, rng, 1 if residual else 2).weight
 
     def optical_depth(self, origins, dirs, t_max, steps: int = 1024, t_min=0.0) -> np.ndarray:
         """(N,3) deterministic midpoint-rule optical depth over the part of [t_min, t_max] inside the
         grid's box (a reference for tests and debugging)."""
-        origins = np.asarray(origins, dtype=np.float64)
-        dirs = np.asarray(dirs, dtype=np.float64)
+        origins, dirs = _points(origins), _points(dirs)
         n = len(origins)
-        box = self._dda_setup(origins, dirs, t_min, t_max)
-        lo, hi = box.t, np.where(box.active, box.t_exit, box.t)
+        lo, hi = np.empty(n), np.empty(n)
+        box_interval_many(self.tables, origins, dirs,
+                          np.ascontiguousarray(np.broadcast_to(np.asarray(t_min, dtype=np.float64), (n,))),
+                          np.ascontiguousarray(np.broadcast_to(np.asarray(t_max, dtype=np.float64), (n,))), lo, hi)
         tau = np.zeros((n, 3))
         for k in range(steps):
             t = lo + (hi - lo) * (k + 0.5) / steps
@@ -649,34 +536,6 @@ class GridMedium:
         return tau
 
 
-class _DDAState:
-    """Per-ray DDA stepping state (SoA): current cell, parametric next boundary crossing per axis,
-    crossing spacing per axis, step direction, current t and the segment end."""
-
-    def __init__(self, voxel, next_t, delta_t, step, t, t_exit, active):
-        # C-contiguous, so advance() can update them through flat views.
-        voxel, next_t, delta_t, step = (np.ascontiguousarray(a) for a in (voxel, next_t, delta_t, step))
-        self.voxel, self.next_t, self.delta_t, self.step = voxel, next_t, delta_t, step
-        self.t, self.t_exit, self.active = t, t_exit, active
-
-    def subset(self, keep):
-        return _DDAState(self.voxel[keep], self.next_t[keep], self.delta_t[keep], self.step[keep],
-                         self.t[keep], self.t_exit[keep], self.active[keep])
-
-    def advance(self, rows, resolution, axis=None, crossing=None):
-        """Step rows into the next cell along the axis of the nearest crossing (pbrt-v4 Next());
-        rows whose segment or grid ends become inactive. axis/crossing: that axis and crossing
-        distance per row when the caller already has them."""
-        if len(rows) == 0:
-            return
-        if axis is None:
-            axis = np.argmin(self.next_t[rows], axis=1)
-            crossing = self.next_t[rows, axis]
-        flat = rows * 3 + axis  # (n,3) arrays are C-contiguous: index their flat views
-        self.t[rows] = np.minimum(crossing, self.t_exit[rows])
-        voxel = self.voxel.reshape(-1)
-        voxel[flat] += self.step.reshape(-1)[flat]
-        self.next_t.reshape(-1)[flat] += self.delta_t.reshape(-1)[flat]
-        moved = voxel[flat]
-        left_grid = (moved < 0) | (moved >= resolution[axis])
-        self.active[rows] &= ~(left_grid | (crossing >= self.t_exit[rows]))
+def _points(a) -> np.ndarray:
+    """(N,3) C-contiguous float64 rows, the layout the kernel loops take."""
+    return np.ascontiguousarray(np.asarray(a, dtype=np.float64).reshape(-1, 3))

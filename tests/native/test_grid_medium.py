@@ -129,7 +129,7 @@ def test_bad_grids_raise_scene_errors():
 def brute_force_cells(medium, origin, direction, t_min, t_max):
     """Cells between consecutive crossings of every grid plane, computed independently of the DDA."""
     to_grid = medium.majorant_shape / (medium.shape - 1)
-    o = medium._to_index(origin[None])[0] * to_grid
+    o = (medium.world_to_index[:3, :3] @ origin + medium.world_to_index[:3, 3]) * to_grid
     d = (direction @ medium.world_to_index[:3, :3].T) * to_grid
     ts = [t_min, t_max]
     for axis in range(3):

@@ -1,0 +1,423 @@
+"""Grid-medium tracking for one ray at a time, compiled with numba, so the integrator's kernels can
+track heterogeneous media per path. grid_medium.GridMedium builds the tables (GridTables,
+`GridMedium.tables`) and its numpy-facing methods are loops over these functions.
+
+Conventions are those of grid_medium (read its module docstring): padded float32 grids, voxel
+(i, j, k) at index point (i, j, k), trilinear lookups, a coarse majorant grid walked with a DDA
+(pbrt-v4 DDAMajorantIterator, src/pbrt/media.h), Cycles' null-scattering weights
+(kernel/integrator/shade_volume.h, volume_null_event_coefficients / volume_scatter_probability).
+
+Random numbers: tracking a ray draws uniform1(key, stream + j) for j = 0, 1, 2, ...; the caller
+reserves STREAM_DIMENSIONS of them per stream. A ray that would need more stops with weight 0 and
+counts an overflow in G.flags (never wraps into another stream).
+
+Kernels cannot raise: a sample whose sigma_t exceeds its cell's bound increments a counter in
+G.flags and leaves the sample in G.violation; GridMedium turns them into MajorantTooLowError in
+debug mode. Counters are updated without locks (threads may lose increments): they flag, they do
+not count exactly.
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from .jit import kernel, uniform1
+
+GridTables = namedtuple("GridTables", [
+    "density",            # (nx,ny,nz) float32, padded (zero border), negative values clamped
+    "scatter_grid",       # (nx,ny,nz,3) float32 per-voxel factor of sigma_s; (1,1,1,3) when has_color is False
+    "absorb_grid",        # (nx,ny,nz,3) float32 per-voxel factor of sigma_a; likewise
+    "emission_grid",      # (nx,ny,nz,3) float32 per-voxel emission; (1,1,1,3) when has_emission_grid is False
+    "has_color",          # bool
+    "has_emission_grid",  # bool
+    "has_emission",       # bool: constant emission is non-zero
+    "world_to_index",     # (3,4) float64 affine world -> padded index space
+    "shape",              # (3,) int64 padded grid shape
+    "sigma_s",            # (3,) float64 per unit density, 1/m
+    "sigma_a",            # (3,) float64
+    "emission",           # (3,) float64 constant emission inside the padded box, W/(m^3 sr)
+    "majorant",           # (R0,R1,R2) float64 scalar majorant per cell (free flight, plain ratio tracking)
+    "minorant",           # (R0,R1,R2,3) float64 per-channel lower bound of sigma_t per cell (residual control)
+    "residual_rate",      # (R0,R1,R2) float64 bound of sigma_t - minorant per cell (residual ratio tracking)
+    "cell_shape",         # (3,) int64 majorant cells per axis
+    "index_to_cell",      # (3,) float64 scale from index space to majorant-cell space
+    "g",                  # float, Henyey-Greenstein anisotropy
+    "flags",              # (3,) int64 counters written by the kernels: see FLAG_*
+    "violation",          # (2,5) float64 last majorant / minorant violation: value, bound, world x, y, z
+])
+
+#: Uniform dimensions reserved per stream; tracking stops (weight 0) rather than exceed them.
+STREAM_DIMENSIONS = 1 << 20
+#: G.flags entries.
+FLAG_MAJORANT, FLAG_MINORANT, FLAG_OVERFLOW = 0, 1, 2
+
+# Tolerances of the bound checks (float32 grids, float64 arithmetic).
+_REL_TOL, _ABS_TOL = 1e-4, 1e-7
+
+
+# ---------------------------------------------------------------------------------------------
+# Lookups
+# ---------------------------------------------------------------------------------------------
+@kernel
+def _to_index(G, x, y, z):
+    m = G.world_to_index
+    return (m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3],
+            m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3],
+            m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3])
+
+
+@kernel
+def _corner(G, px, py, pz):
+    """Base voxel and trilinear fractions of an index point; inside False outside the padded box
+    (the background, 0), as Cycles' linear interpolation (kernel/util/image_3d.h)."""
+    nx, ny, nz = G.shape[0], G.shape[1], G.shape[2]
+    inside = 0.0 <= px <= nx - 1 and 0.0 <= py <= ny - 1 and 0.0 <= pz <= nz - 1
+    i = min(max(int(np.floor(px)), 0), nx - 2)
+    j = min(max(int(np.floor(py)), 0), ny - 2)
+    k = min(max(int(np.floor(pz)), 0), nz - 2)
+    return inside, i, j, k, px - i, py - j, pz - k
+
+
+@kernel
+def _trilinear(grid, i, j, k, fx, fy, fz):
+    gx, gy, gz = 1.0 - fx, 1.0 - fy, 1.0 - fz
+    return (gx * (gy * (gz * grid[i, j, k] + fz * grid[i, j, k + 1])
+                  + fy * (gz * grid[i, j + 1, k] + fz * grid[i, j + 1, k + 1]))
+            + fx * (gy * (gz * grid[i + 1, j, k] + fz * grid[i + 1, j, k + 1])
+                    + fy * (gz * grid[i + 1, j + 1, k] + fz * grid[i + 1, j + 1, k + 1])))
+
+
+@kernel
+def _trilinear3(grid, i, j, k, fx, fy, fz):
+    """Trilinear interpolation of an (nx,ny,nz,3) grid: three floats."""
+    gx, gy, gz = 1.0 - fx, 1.0 - fy, 1.0 - fz
+    r = g = b = 0.0
+    for dx in range(2):
+        wx = fx if dx else gx
+        for dy in range(2):
+            wy = wx * (fy if dy else gy)
+            for dz in range(2):
+                w = wy * (fz if dz else gz)
+                r += w * grid[i + dx, j + dy, k + dz, 0]
+                g += w * grid[i + dx, j + dy, k + dz, 1]
+                b += w * grid[i + dx, j + dy, k + dz, 2]
+    return r, g, b
+
+
+@kernel
+def grid_density(G, x, y, z):
+    """Interpolated density at a world point."""
+    inside, i, j, k, fx, fy, fz = _corner(G, *_to_index(G, x, y, z))
+    if not inside:
+        return 0.0
+    return _trilinear(G.density, i, j, k, fx, fy, fz)
+
+
+@kernel
+def grid_coefficients(G, x, y, z):
+    """(sigma_s rgb, sigma_t rgb, emission rgb) at a world point: 9 floats. Colour factors and
+    emission are interpolated per voxel (the expectation of Cycles' stochastic lookup)."""
+    inside, i, j, k, fx, fy, fz = _corner(G, *_to_index(G, x, y, z))
+    if not inside:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    rho = _trilinear(G.density, i, j, k, fx, fy, fz)
+    ss, sa = G.sigma_s, G.sigma_a
+    if G.has_color:
+        cr, cg, cb = _trilinear3(G.scatter_grid, i, j, k, fx, fy, fz)
+        ar, ag, ab = _trilinear3(G.absorb_grid, i, j, k, fx, fy, fz)
+        sr, sg, sb = rho * cr * ss[0], rho * cg * ss[1], rho * cb * ss[2]
+        tr, tg, tb = sr + rho * ar * sa[0], sg + rho * ag * sa[1], sb + rho * ab * sa[2]
+    else:
+        sr, sg, sb = rho * ss[0], rho * ss[1], rho * ss[2]
+        tr, tg, tb = sr + rho * sa[0], sg + rho * sa[1], sb + rho * sa[2]
+    er = eg = eb = 0.0
+    if G.has_emission:  # constant emission fills the padded box (Cycles' volume bounds)
+        er, eg, eb = G.emission[0], G.emission[1], G.emission[2]
+    if G.has_emission_grid:
+        gr, gg, gb = _trilinear3(G.emission_grid, i, j, k, fx, fy, fz)
+        er, eg, eb = er + gr, eg + gg, eb + gb
+    return sr, sg, sb, tr, tg, tb, er, eg, eb
+
+
+@kernel
+def grid_scattering(G, x, y, z):
+    """sigma_s (rgb) at a world point, for next-event phase weights (the HG g is G.g)."""
+    c = grid_coefficients(G, x, y, z)
+    return c[0], c[1], c[2]
+
+
+# ---------------------------------------------------------------------------------------------
+# DDA over majorant cells (pbrt-v4 DDAMajorantIterator, src/pbrt/media.h)
+# ---------------------------------------------------------------------------------------------
+@kernel
+def _slab(o, d, hi):
+    """Parametric [near, far] of one axis slab [0, hi] for a ray coordinate o + d t."""
+    if d == 0.0:
+        if 0.0 <= o <= hi:
+            return -np.inf, np.inf
+        return np.inf, -np.inf
+    t0, t1 = (0.0 - o) / d, (hi - o) / d
+    return min(t0, t1), max(t0, t1)
+
+
+@kernel
+def _axis_start(o, d, t_enter, cells):
+    """Cell, next boundary crossing, crossing spacing and step along one axis at t_enter."""
+    p = o + d * t_enter
+    cell = min(max(int(np.floor(p)), 0), cells - 1)
+    if d == 0.0:
+        return cell, np.inf, np.inf, 0
+    if d > 0.0:
+        return cell, t_enter + (cell + 1 - p) / d, 1.0 / d, 1
+    return cell, t_enter + (cell - p) / d, -1.0 / d, -1
+
+
+@kernel
+def _dda_start(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
+    """DDA state of a ray on [t_min, t_max] in majorant-cell coordinates: (active, t, t_exit,
+    cell (3), next crossing (3), crossing spacing (3), step (3)). Ray parameters stay world
+    distances: the affine map preserves them."""
+    m, s, cs = G.world_to_index, G.index_to_cell, G.cell_shape
+    px, py, pz = _to_index(G, ox, oy, oz)
+    px, py, pz = px * s[0], py * s[1], pz * s[2]
+    vx = (m[0, 0] * dx + m[0, 1] * dy + m[0, 2] * dz) * s[0]
+    vy = (m[1, 0] * dx + m[1, 1] * dy + m[1, 2] * dz) * s[1]
+    vz = (m[2, 0] * dx + m[2, 1] * dy + m[2, 2] * dz) * s[2]
+    n0, f0 = _slab(px, vx, cs[0])
+    n1, f1 = _slab(py, vy, cs[1])
+    n2, f2 = _slab(pz, vz, cs[2])
+    t_enter = max(max(n0, n1), max(n2, t_min))
+    t_exit = min(min(f0, f1), min(f2, t_max))
+    if not t_enter < t_exit:  # misses the box (or an empty segment): nothing to walk
+        return False, t_exit, t_exit, 0, 0, 0, np.inf, np.inf, np.inf, np.inf, np.inf, np.inf, 0, 0, 0
+    cx, nx, ex, sx = _axis_start(px, vx, t_enter, cs[0])
+    cy, ny, ey, sy = _axis_start(py, vy, t_enter, cs[1])
+    cz, nz, ez, sz = _axis_start(pz, vz, t_enter, cs[2])
+    return True, t_enter, t_exit, cx, cy, cz, nx, ny, nz, ex, ey, ez, sx, sy, sz
+
+
+@kernel
+def grid_box_interval(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
+    """(t0, t1) of the part of [t_min, t_max] inside the medium's box; t0 == t1 if none."""
+    s = _dda_start(G, ox, oy, oz, dx, dy, dz, t_min, t_max)
+    if not s[0]:
+        return t_min, t_min
+    return s[1], s[2]
+
+
+@kernel
+def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, bb):
+    """Walk the majorant cells of one ray and sample tentative collisions, exponential with the
+    cell's rate and restarted at each boundary (memorylessness keeps it exact; pbrt-v4 SampleT_maj).
+
+    mode 0: delta tracking with null collisions (free flight; Cycles' null-scattering weights,
+        scatter-vs-null chosen with the throughput (br, bg, bb) x albedo channel pdf:
+        shade_volume.h volume_sample_channel_pdf / volume_scatter_probability).
+    mode 1: residual ratio tracking (Novak et al. 2014), the cell minorant as control.
+    mode 2: plain ratio tracking against the majorant.
+    Returns (t, scattered, weight rgb, emission rgb); ratio tracking only fills the weight."""
+    wr = wg = wb = 1.0
+    er = eg = eb = 0.0
+    t_event = t_max
+    scattered = False
+    # Control optical depth (residual ratio tracking): integral of the piecewise-constant minorant.
+    cr = cg = cb = 0.0
+    active, t, t_exit, cx, cy, cz, nx, ny, nz, ex, ey, ez, sx, sy, sz = _dda_start(
+        G, ox, oy, oz, dx, dy, dz, t_min, t_max)
+    rx, ry, rz = G.cell_shape[0], G.cell_shape[1], G.cell_shape[2]
+    draws = np.int64(0)
+    while active:
+        rate = G.residual_rate[cx, cy, cz] if mode == 1 else G.majorant[cx, cy, cz]
+        if nx <= ny and nx <= nz:
+            axis, crossing = 0, nx
+        elif ny <= nz:
+            axis, crossing = 1, ny
+        else:
+            axis, crossing = 2, nz
+        cell_end = min(crossing, t_exit)
+        if draws >= STREAM_DIMENSIONS - 1:  # a collision needs up to two more dimensions
+            G.flags[FLAG_OVERFLOW] += 1
+            return t_max, False, 0.0, 0.0, 0.0, er, eg, eb
+        u = uniform1(key, np.uint64(stream) + np.uint64(draws))
+        draws += 1
+        t_candidate = t - np.log1p(-u) / rate if rate > 0.0 else np.inf
+        collided = t_candidate < cell_end
+        if mode == 1:
+            reached = t_candidate if collided else cell_end
+            c = G.minorant
+            cr += c[cx, cy, cz, 0] * (reached - t)
+            cg += c[cx, cy, cz, 1] * (reached - t)
+            cb += c[cx, cy, cz, 2] * (reached - t)
+        if collided:
+            t = t_candidate
+            x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
+            ssr, ssg, ssb, str_, stg, stb, emr, emg, emb = grid_coefficients(G, x, y, z)
+            if mode == 0:
+                stop = False
+                peak = max(str_, max(stg, stb))
+                if peak > rate * (1.0 + _REL_TOL) + _ABS_TOL:
+                    _record(G, FLAG_MAJORANT, peak, rate, x, y, z)
+                inv = 1.0 / rate
+                er += wr * emr * inv
+                eg += wg * emg * inv
+                eb += wb * emb * inv
+                nr, ng, nb = max(rate - str_, 0.0), max(rate - stg, 0.0), max(rate - stb, 0.0)
+                pr = abs(br) * (ssr / str_ if str_ > 0.0 else 1.0)
+                pg = abs(bg) * (ssg / stg if stg > 0.0 else 1.0)
+                pb = abs(bb) * (ssb / stb if stb > 0.0 else 1.0)
+                total = pr + pg + pb
+                if total > 0.0:
+                    pr, pg, pb = pr / total, pg / total, pb / total
+                else:
+                    pr = pg = pb = 1.0 / 3.0
+                prob = (pr * (ssr / (ssr + nr) if ssr + nr > 0.0 else 0.0)
+                        + pg * (ssg / (ssg + ng) if ssg + ng > 0.0 else 0.0)
+                        + pb * (ssb / (ssb + nb) if ssb + nb > 0.0 else 0.0))
+                u = uniform1(key, np.uint64(stream) + np.uint64(draws))
+                draws += 1
+                if u < prob:
+                    f = inv / prob
+                    wr, wg, wb = wr * ssr * f, wg * ssg * f, wb * ssb * f
+                    scattered = True
+                    t_event = t
+                    stop = True
+                else:
+                    f = inv / (1.0 - prob)
+                    wr, wg, wb = wr * nr * f, wg * ng * f, wb * nb * f
+                if stop or not (wr > 0.0 or wg > 0.0 or wb > 0.0):
+                    return t_event, scattered, wr, wg, wb, er, eg, eb
+            else:
+                if mode == 1:
+                    c = G.minorant
+                    mr, mg, mb = c[cx, cy, cz, 0], c[cx, cy, cz, 1], c[cx, cy, cz, 2]
+                else:
+                    mr = mg = mb = 0.0
+                qr, qg, qb = str_ - mr, stg - mg, stb - mb
+                peak = max(qr, max(qg, qb))
+                if peak > rate * (1.0 + _REL_TOL) + _ABS_TOL:
+                    _record(G, FLAG_MAJORANT, peak, rate, x, y, z)
+                if mode == 1:
+                    low = min(str_ - mr * (1.0 - _REL_TOL), min(stg - mg * (1.0 - _REL_TOL), stb - mb * (1.0 - _REL_TOL)))
+                    if low < -_ABS_TOL:
+                        _record(G, FLAG_MINORANT, min(str_, min(stg, stb)), max(mr, max(mg, mb)), x, y, z)
+                inv = 1.0 / rate
+                wr *= max(1.0 - qr * inv, 0.0)
+                wg *= max(1.0 - qg * inv, 0.0)
+                wb *= max(1.0 - qb * inv, 0.0)
+                if not (wr > 0.0 or wg > 0.0 or wb > 0.0):
+                    return t_max, False, 0.0, 0.0, 0.0, er, eg, eb
+        else:  # step into the next cell along the nearest crossing (pbrt-v4 Next())
+            t = cell_end
+            if axis == 0:
+                cx += sx
+                nx += ex
+                left = cx < 0 or cx >= rx
+            elif axis == 1:
+                cy += sy
+                ny += ey
+                left = cy < 0 or cy >= ry
+            else:
+                cz += sz
+                nz += ez
+                left = cz < 0 or cz >= rz
+            active = not (left or crossing >= t_exit)
+    if mode == 1:
+        wr, wg, wb = wr * np.exp(-cr), wg * np.exp(-cg), wb * np.exp(-cb)
+    return t_event, scattered, wr, wg, wb, er, eg, eb
+
+
+@kernel
+def _record(G, flag, value, bound, x, y, z):
+    G.flags[flag] += 1
+    v = G.violation[flag]
+    v[0], v[1], v[2], v[3], v[4] = value, bound, x, y, z
+
+
+@kernel
+def grid_free_flight(G, ox, oy, oz, dx, dy, dz, t_max, key, stream, br, bg, bb):
+    """Delta tracking with null collisions on [0, t_max] along a unit ray; (br, bg, bb) is the path
+    throughput for the channel pdf. Returns (t, scattered, wr, wg, wb, er, eg, eb): the event
+    distance (t_max without a scatter), whether a real scattering collision happened at t, the
+    factor for beta (sigma_s / pdf included at a scatter, an unbiased transmittance estimate
+    otherwise) and the emission to add as L += beta_in * emission (beta_in: the throughput at the
+    segment start)."""
+    return _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, 0, br, bg, bb)
+
+
+@kernel
+def grid_transmittance(G, ox, oy, oz, dx, dy, dz, t_max, key, stream):
+    """Unbiased transmittance estimate (rgb) over [0, t_max] along a unit ray: residual ratio
+    tracking with the cell minorant as control (exact where the density is constant)."""
+    r = _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, 1, 1.0, 1.0, 1.0)
+    return r[2], r[3], r[4]
+
+
+# ---------------------------------------------------------------------------------------------
+# Loops behind GridMedium's numpy-facing methods
+# ---------------------------------------------------------------------------------------------
+@kernel
+def track_many(G, origins, dirs, t_min, t_max, keys, stream, mode, throughput, t_out, scattered, weight, emission):
+    for n in range(len(origins)):
+        o, d = origins[n], dirs[n]
+        r = _track(G, o[0], o[1], o[2], d[0], d[1], d[2], t_min[n], t_max[n], keys[n], stream, mode,
+                   throughput[n, 0], throughput[n, 1], throughput[n, 2])
+        t_out[n], scattered[n] = r[0], r[1]
+        weight[n, 0], weight[n, 1], weight[n, 2] = r[2], r[3], r[4]
+        emission[n, 0], emission[n, 1], emission[n, 2] = r[5], r[6], r[7]
+
+
+@kernel
+def coefficients_many(G, points, sigma_s, sigma_t, emission):
+    for n in range(len(points)):
+        c = grid_coefficients(G, points[n, 0], points[n, 1], points[n, 2])
+        for ch in range(3):
+            sigma_s[n, ch], sigma_t[n, ch], emission[n, ch] = c[ch], c[3 + ch], c[6 + ch]
+
+
+@kernel
+def density_many(G, points, out):
+    for n in range(len(points)):
+        out[n] = grid_density(G, points[n, 0], points[n, 1], points[n, 2])
+
+
+@kernel
+def box_interval_many(G, origins, dirs, t_min, t_max, t0, t1):
+    for n in range(len(origins)):
+        o, d = origins[n], dirs[n]
+        t0[n], t1[n] = grid_box_interval(G, o[0], o[1], o[2], d[0], d[1], d[2], t_min[n], t_max[n])
+
+
+@kernel
+def dda_cells1(G, ox, oy, oz, dx, dy, dz, t_min, t_max, cells, spans):
+    """The majorant cells one ray visits, in order, into cells (M,3) and spans (M,2) [t0, t1);
+    returns their count. The same stepping as _track, for tests and debugging."""
+    active, t, t_exit, cx, cy, cz, nx, ny, nz, ex, ey, ez, sx, sy, sz = _dda_start(
+        G, ox, oy, oz, dx, dy, dz, t_min, t_max)
+    count = 0
+    while active and count < len(cells):
+        if nx <= ny and nx <= nz:
+            axis, crossing = 0, nx
+        elif ny <= nz:
+            axis, crossing = 1, ny
+        else:
+            axis, crossing = 2, nz
+        cell_end = min(crossing, t_exit)
+        cells[count, 0], cells[count, 1], cells[count, 2] = cx, cy, cz
+        spans[count, 0], spans[count, 1] = t, cell_end
+        count += 1
+        t = cell_end
+        if axis == 0:
+            cx += sx
+            nx += ex
+            left = cx < 0 or cx >= G.cell_shape[0]
+        elif axis == 1:
+            cy += sy
+            ny += ey
+            left = cy < 0 or cy >= G.cell_shape[1]
+        else:
+            cz += sz
+            nz += ez
+            left = cz < 0 or cz >= G.cell_shape[2]
+        active = not (left or crossing >= t_exit)
+    return count
