@@ -14,6 +14,10 @@ hits them (for MIS). Conventions follow Cycles (scene/light.cpp, kernel/light/*.
 - constant world: background colour is radiance.
 Lamps do not block rays: a ray that hits one picks up its emission and continues (Cycles
 integrator/shade_light.h advances the ray beyond the light).
+
+LightSet builds flat tables (LightSet.tables, a light_kernels.LightTables); sampling and
+evaluation are the compiled per-path functions of light_kernels, and the array methods below are
+loops over them.
 """
 from __future__ import annotations
 
@@ -22,17 +26,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from .accel import Accelerator
-from .sampling import concentric_disk, local_to_world, uniform_cone, uniform_sphere
+from .light_kernels import (AREA_ELLIPSE, AREA_RECT, DISK, POINT, SPHERE, SUN, TRIANGLE, WORLD, LightTables,
+                            distant_emission_many, has_position_many, lamp_crossing_many, sample_many,
+                            select_many, triangle_emission_many)
 from .scene import AreaLight, PointLight, Scene, SpotLight, SunLight
-from .vec import any_positive, dot as _dot, norm
+from .vec import any_positive
 
-POINT, SPHERE, DISK, AREA_RECT, AREA_ELLIPSE, SUN, TRIANGLE, WORLD = range(8)
 _HITTABLE = (SPHERE, DISK, AREA_RECT, AREA_ELLIPSE)
-
-
-def _smoothstep(f):
-    f = np.clip(f, 0.0, 1.0)
-    return f * f * (3.0 - 2.0 * f)
 
 
 @dataclass
@@ -122,9 +122,30 @@ class LightSet:
         self.hittable_rows = self.hittable_rows[self.hittable_rows < self.n_lamps]
         self.sun_rows = np.nonzero((self.kind == SUN) & (self.cos_half < 1.0))[0]
         self.world_row = n - 1 if n and self.kind[-1] == WORLD else -1
-        self.has_spots = bool(np.any(self.spot_smooth > 0))
-        kinds = np.unique(self.kind)
-        self.single_kind = int(kinds[0]) if len(kinds) == 1 else None
+        self.tables = self._tables()
+
+    def _tables(self) -> LightTables:
+        """The tables in the fixed dtypes/layouts the compiled kernels are specialised for (one
+        compilation serves every scene)."""
+        def f64(a):
+            return np.ascontiguousarray(a, dtype=np.float64)
+
+        def i64(a):
+            return np.ascontiguousarray(a, dtype=np.int64)
+
+        def flag(a):
+            return np.ascontiguousarray(a, dtype=np.bool_)
+
+        return LightTables(
+            kind=np.ascontiguousarray(self.kind, dtype=np.int32), position=f64(self.position),
+            strength=f64(self.strength), radius=f64(self.radius), axis_u=f64(self.axis_u),
+            axis_v=f64(self.axis_v), normal=f64(self.normal), area=f64(self.area), cos_half=f64(self.cos_half),
+            spot_smooth=f64(self.spot_smooth), two_sided=flag(self.two_sided), triangle=i64(self.triangle),
+            camera_visible=flag(self.camera_visible), select_prob=f64(self.select_prob),
+            select_cdf=f64(self.select_cdf), corners=f64(self.corners).reshape(-1, 3, 3),
+            row_of_triangle=i64(self.row_of_triangle), hittable_rows=i64(self.hittable_rows),
+            sun_rows=i64(self.sun_rows), world_row=int(self.world_row),
+            world_radiance=f64(self.world_radiance).reshape(3), count=int(self.count))
 
     # -----------------------------------------------------------------------------------------
     def _lamp_rows(self, light) -> list[dict]:
@@ -169,247 +190,71 @@ class LightSet:
         return [row]
 
     # -----------------------------------------------------------------------------------------
+    # numpy-facing API: loops over the scalar kernels of light_kernels (one implementation)
+    # -----------------------------------------------------------------------------------------
     def select(self, u: np.ndarray) -> np.ndarray:
-        return np.minimum(np.searchsorted(self.select_cdf, u, side="right"), self.count - 1)
+        u = _f64(u)
+        out = np.empty(len(u), np.int64)
+        select_many(self.tables, u, out)
+        return out
 
     def has_position(self, rows: np.ndarray) -> np.ndarray:
         """Rows whose emitters sit at a finite position (usable for equiangular sampling)."""
-        k = self.kind[rows]
-        return (k != SUN) & (k != WORLD)
-
-    def _spot_mask(self, rows, light_to_point_dir):
-        if not self.has_spots:
-            return 1.0
-        smooth = self.spot_smooth[rows]
-        cos_angle = _dot(light_to_point_dir, self.normal[rows])
-        mask = _smoothstep((cos_angle - self.cos_half[rows]) * smooth)
-        return np.where(smooth > 0, mask, 1.0)
+        rows = _i64(rows)
+        out = np.empty(len(rows), bool)
+        has_position_many(self.tables, rows, out)
+        return out
 
     def sample(self, rows: np.ndarray, p: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> LightSample:
-        """Sample a point/direction on light `rows[i]` as seen from p[i]."""
+        """Sample a point/direction on light `rows[i]` as seen from p[i] (light_kernels.sample_light)."""
+        rows = _i64(rows)
         n = len(rows)
-        if self.single_kind is not None:  # common case: no per-kind split and scatter
-            wi, dist, value, pdf = getattr(self, _SAMPLERS[self.single_kind])(rows, p, u1, u2)
-            value = np.require(value, np.float64, ["W"])  # divided in place below
-        else:
-            wi = np.zeros((n, 3))
-            wi[:, 2] = 1.0
-            dist = np.full(n, np.inf)
-            value = np.zeros((n, 3))
-            pdf = np.zeros(n)
-            kind = self.kind[rows]
-            for k in np.unique(kind):
-                m = np.nonzero(kind == k)[0]
-                r = rows[m]
-                w, d, v, pd = getattr(self, _SAMPLERS[k])(r, p[m], u1[m], u2[m])
-                wi[m], dist[m], value[m], pdf[m] = w, d, v, pd
-        sel = self.select_prob[rows]
-        ok = sel > 0
-        if ok.all():
-            value /= sel[:, None]
-        else:
-            value = np.where(ok[:, None], value / np.where(ok, sel, 1.0)[:, None], 0.0)
-        return LightSample(wi, dist, value, pdf * sel)
+        wi, dist, value, pdf = np.empty((n, 3)), np.empty(n), np.empty((n, 3)), np.empty(n)
+        sample_many(self.tables, rows, _f64(p).reshape(n, 3), _f64(u1), _f64(u2), wi, dist, value, pdf)
+        return LightSample(wi, dist, value, pdf)
 
-    def _to_light(self, rows, p):
-        to = self.position[rows] - p
-        d = norm(to)
-        return to / np.maximum(d, 1e-30)[:, None], d
-
-    def _sample_point(self, rows, p, u1, u2):
-        wi, d = self._to_light(rows, p)
-        mask = self._spot_mask(rows, -wi)
-        value = self.strength[rows] * (mask / np.maximum(d * d, 1e-30))[:, None]
-        return wi, d, value, np.zeros(len(rows))
-
-    def _sample_disk(self, rows, p, u1, u2):
-        to_centre, d = self._to_light(rows, p)
-        light_n = -to_centre  # disk faces the shading point (point.h)
-        x, y = concentric_disk(u1, u2)
-        radius = self.radius[rows]
-        offset = local_to_world(light_n, x * radius, y * radius, np.zeros(len(rows)))
-        y_pt = self.position[rows] + offset
-        to = y_pt - p
-        dist = norm(to)
-        wi = to / np.maximum(dist, 1e-30)[:, None]
-        cos_l = np.maximum(_dot(light_n, -wi), 0.0)
-        pdf = np.where(cos_l > 0, dist * dist / np.maximum(cos_l * np.pi * radius * radius, 1e-30), 0.0)
-        mask = self._spot_mask(rows, -wi)  # per sampled point (spot.h)
-        value = self.strength[rows] * np.where(pdf > 0, mask / np.maximum(pdf, 1e-30), 0.0)[:, None]
-        return wi, dist, value, pdf
-
-    def _sample_sphere(self, rows, p, u1, u2):
-        to_centre, d = self._to_light(rows, p)
-        r = self.radius[rows]
-        outside = d > r
-        sin2 = np.minimum((r / np.maximum(d, 1e-30)) ** 2, 1.0)
-        cos_max = np.sqrt(1.0 - sin2)
-        wi_cone = uniform_cone(to_centre, cos_max, u1, u2)
-        pdf_cone = 1.0 / (2.0 * np.pi * np.maximum(1.0 - cos_max, 1e-12))
-        wi_in = uniform_sphere(u1, u2)
-        wi = np.where(outside[:, None], wi_cone, wi_in)
-        pdf = np.where(outside, pdf_cone, 1.0 / (4.0 * np.pi))
-        t, _ = _ray_sphere(p, wi, self.position[rows], r)
-        dist = np.where(np.isfinite(t), t, d)
-        mask = np.where(outside, self._spot_mask(rows, -wi), 1.0)  # no mask inside the sphere (spot.h)
-        value = self.strength[rows] * (mask / pdf)[:, None]
-        return wi, dist, value, pdf
-
-    def _sample_area(self, rows, p, u1, u2, ellipse=False):
-        if ellipse:
-            x, y = concentric_disk(u1, u2)
-            x, y = 0.5 * x, 0.5 * y
-        else:
-            x, y = u1 - 0.5, u2 - 0.5
-        y_pt = self.position[rows] + self.axis_u[rows] * x[:, None] + self.axis_v[rows] * y[:, None]
-        return self._area_measure(rows, p, y_pt, self.normal[rows], one_sided=np.ones(len(rows), bool))
-
-    def _sample_ellipse(self, rows, p, u1, u2):
-        return self._sample_area(rows, p, u1, u2, ellipse=True)
-
-    def _area_measure(self, rows, p, y_pt, normal, one_sided):
-        to = y_pt - p
-        dist = norm(to)
-        wi = to / np.maximum(dist, 1e-30)[:, None]
-        cos_l = _dot(normal, -wi)
-        cos_eff = np.where(one_sided, np.maximum(cos_l, 0.0), np.abs(cos_l))
-        pdf = np.where(cos_eff > 1e-12, dist * dist / np.maximum(cos_eff * self.area[rows], 1e-30), 0.0)
-        value = self.strength[rows] * np.where(pdf > 0, 1.0 / np.maximum(pdf, 1e-30), 0.0)[:, None]
-        return wi, dist, value, pdf
-
-    def _sample_triangle(self, rows, p, u1, u2):
-        su = np.sqrt(u1)
-        b1, b2 = 1.0 - su, u2 * su
-        c = self.corners[self.triangle[rows]]
-        y_pt = c[:, 0] * (1 - b1 - b2)[:, None] + c[:, 1] * b1[:, None] + c[:, 2] * b2[:, None]
-        return self._area_measure(rows, p, y_pt, self.normal[rows], one_sided=~self.two_sided[rows])
-
-    def _sample_sun(self, rows, p, u1, u2):
-        n = len(rows)
-        axis = self.normal[rows]
-        cos_h = self.cos_half[rows]
-        cone = cos_h < 1.0
-        wi = np.where(cone[:, None], uniform_cone(axis, cos_h, u1, u2), axis)
-        pdf = np.where(cone, 1.0 / (2.0 * np.pi * np.maximum(1.0 - cos_h, 1e-300)), 0.0)
-        value = self.strength[rows] / np.where(cone, pdf, 1.0)[:, None]
-        return wi, np.full(n, np.inf), value, pdf
-
-    def _sample_world(self, rows, p, u1, u2):
-        n = len(rows)
-        pdf = np.full(n, 1.0 / (4.0 * np.pi))
-        return uniform_sphere(u1, u2), np.full(n, np.inf), self.strength[rows] * (4.0 * np.pi), pdf
-
-    # -----------------------------------------------------------------------------------------
-    # Evaluation of emitters hit by rays (for MIS against BSDF / phase sampling)
-    # -----------------------------------------------------------------------------------------
     def triangle_emission(self, prim, origins, directions, t, front):
         """Radiance and light-sampling pdf (solid angle, incl. selection) of emissive triangles hit."""
-        rows = self.row_of_triangle[prim]
-        hit = rows >= 0
-        radiance = np.zeros((len(prim), 3))
-        pdf = np.zeros(len(prim))
-        if not hit.any():
-            return radiance, pdf
-        r = rows[hit]
-        visible = self.two_sided[r] | front[hit]
-        radiance[hit] = self.strength[r] * visible[:, None]
-        cos_l = np.abs(_dot(self.normal[r], directions[hit]))
-        pdf[hit] = self.select_prob[r] * t[hit] ** 2 / np.maximum(cos_l * self.area[r], 1e-30)
+        prim = _i64(prim)
+        n = len(prim)
+        radiance, pdf = np.empty((n, 3)), np.empty(n)
+        triangle_emission_many(self.tables, prim, _f64(origins).reshape(n, 3), _f64(directions).reshape(n, 3),
+                               _f64(t), np.ascontiguousarray(front, dtype=bool), radiance, pdf)
         return radiance, pdf
 
     def escaped_emission(self, directions):
         """List of (radiance (N,3), light pdf (N,), camera_visible) for distant emitters seen
-        along directions."""
+        along directions (the world is always visible to the camera)."""
+        d = _f64(directions).reshape(-1, 3)
         out = []
-        if self.world_row >= 0:
-            n = len(directions)
-            out.append((np.broadcast_to(self.world_radiance, (n, 3)),
-                        np.full(n, self.select_prob[self.world_row] / (4.0 * np.pi)), True))
-        for row in self.sun_rows:
-            inside = directions @ self.normal[row] >= self.cos_half[row]
-            pdf = self.select_prob[row] / (2.0 * np.pi * (1.0 - self.cos_half[row]))
-            out.append((inside[:, None] * self.strength[row], inside * pdf, self.camera_visible[row]))
+        rows = ([self.world_row] if self.world_row >= 0 else []) + list(self.sun_rows)
+        for row in rows:
+            radiance, pdf = np.empty((len(d), 3)), np.empty(len(d))
+            distant_emission_many(self.tables, int(row), d, radiance, pdf)
+            out.append((radiance, pdf, True if row == self.world_row else bool(self.camera_visible[row])))
         return out
 
     def intersect_lamps(self, origins, directions, tmin, tmax):
         """Emission of lamps (spheres, soft point disks, area lights) crossed by the rays within
-        (tmin, tmax]: list of (t (N,), radiance (N,3), light pdf (N,), camera_visible) per lamp,
-        t = inf where missed.
+        (tmin, tmax]: list of (t (N,), radiance (N,3), light pdf (N,), camera_visible) per lamp
+        crossed by at least one ray, t = inf where missed.
         origins are the previous scattering vertices (the reference point of the light pdf)."""
+        o = _f64(origins).reshape(-1, 3)
+        n = len(o)
+        d = _f64(directions).reshape(n, 3)
+        tmin = _f64(np.broadcast_to(tmin, (n,)))
+        tmax = _f64(np.broadcast_to(tmax, (n,)))
         out = []
-        for row in self.hittable_rows:
-            kind = self.kind[row]
-            c = self.position[row]
-            n = len(origins)
-            radiance = np.zeros((n, 3))
-            pdf = np.zeros(n)
-            if kind == SPHERE:
-                t, _ = _ray_sphere(origins, directions, c[None, :], self.radius[row])
-                d2 = np.sum((origins - c) ** 2, axis=1)
-                r2 = self.radius[row] ** 2
-                cos_max = np.sqrt(np.maximum(1.0 - r2 / np.maximum(d2, 1e-30), 0.0))
-                pdf = np.where(d2 > r2, 1.0 / (2 * np.pi * np.maximum(1 - cos_max, 1e-12)), 1 / (4 * np.pi))
-                light_to_origin = origins - c
-            elif kind == DISK:
-                light_n = origins - c
-                dist_c = norm(light_n)
-                light_n = light_n / np.maximum(dist_c, 1e-30)[:, None]
-                t, cos_l = _ray_plane(origins, directions, c, light_n)
-                hit_pt = origins + directions * np.where(np.isfinite(t), t, 0.0)[:, None]
-                inside = np.sum((hit_pt - c) ** 2, axis=1) <= self.radius[row] ** 2
-                t = np.where(inside, t, np.inf)
-                pdf = t ** 2 / np.maximum(np.abs(cos_l) * np.pi * self.radius[row] ** 2, 1e-30)
-                light_to_origin = light_n
-            else:
-                normal = self.normal[row]
-                t, cos_l = _ray_plane(origins, directions, c, normal)
-                t = np.where(cos_l < 0, t, np.inf)  # one-sided: seen from the emitting side
-                hit_pt = origins + directions * np.where(np.isfinite(t), t, 0.0)[:, None] - c
-                au, av = self.axis_u[row], self.axis_v[row]
-                x = hit_pt @ au / (au @ au)
-                y = hit_pt @ av / (av @ av)
-                if kind == AREA_ELLIPSE:
-                    inside = x * x + y * y <= 0.25
-                else:
-                    inside = (np.abs(x) <= 0.5) & (np.abs(y) <= 0.5)
-                t = np.where(inside, t, np.inf)
-                pdf = t ** 2 / np.maximum(np.abs(cos_l) * self.area[row], 1e-30)
-                light_to_origin = None
-            t = np.where((t > tmin) & (t <= tmax), t, np.inf)
-            found = np.isfinite(t)
-            if not found.any():
-                continue
-            mask = 1.0
-            if light_to_origin is not None:
-                dirs = light_to_origin / np.maximum(norm(light_to_origin), 1e-30)[:, None]
-                mask = self._spot_mask(np.full(n, row), dirs)
-            radiance = found[:, None] * self.strength[row] * np.asarray(mask).reshape(-1, 1)
-            out.append((t, radiance, np.where(found, pdf * self.select_prob[row], 0.0), self.camera_visible[row]))
+        for k, row in enumerate(self.hittable_rows):
+            t, radiance, pdf = np.empty(n), np.empty((n, 3)), np.empty(n)
+            if lamp_crossing_many(self.tables, k, o, d, tmin, tmax, t, radiance, pdf):
+                out.append((t, radiance, pdf, bool(self.camera_visible[row])))
         return out
 
 
-_SAMPLERS = {POINT: "_sample_point", SPHERE: "_sample_sphere", DISK: "_sample_disk",
-             AREA_RECT: "_sample_area", AREA_ELLIPSE: "_sample_ellipse", SUN: "_sample_sun",
-             TRIANGLE: "_sample_triangle", WORLD: "_sample_world"}
+def _f64(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
-def _ray_sphere(o, d, centre, radius):
-    """Nearest positive intersection distance of unit rays with spheres (inf if none)."""
-    oc = o - centre
-    b = np.einsum("ij,ij->i", oc, d)
-    c = np.einsum("ij,ij->i", oc, oc) - np.asarray(radius) ** 2
-    disc = b * b - c
-    sq = np.sqrt(np.maximum(disc, 0.0))
-    t0, t1 = -b - sq, -b + sq
-    t = np.where(t0 > 1e-9, t0, np.where(t1 > 1e-9, t1, np.inf))
-    return np.where(disc >= 0, t, np.inf), disc
-
-
-def _ray_plane(o, d, point, normal):
-    """Distance along unit rays to a plane and cos(ray, plane normal); inf when parallel/behind."""
-    normal = np.broadcast_to(normal, o.shape)
-    cos = np.einsum("ij,ij->i", d, normal)
-    num = np.einsum("ij,ij->i", point - o, normal)
-    safe = np.where(np.abs(cos) > 1e-12, cos, 1.0)
-    t = np.where(np.abs(cos) > 1e-12, num / safe, np.inf)
-    return np.where(t > 1e-9, t, np.inf), cos
+def _i64(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.int64)

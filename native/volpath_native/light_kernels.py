@@ -1,0 +1,463 @@
+"""Light sampling and evaluation for one path at a time, compiled with numba, so the integrator's
+kernels can sample and evaluate emitters per path. lights.LightSet builds the tables (LightTables)
+and its numpy-facing methods are loops over these functions.
+
+Conventions follow Cycles (scene/light.cpp, kernel/light/*.h); see lights.py for the list. Each
+function takes the tables T and one row/ray as scalars and returns a tuple of floats.
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from .jit import kernel
+from .mis import mis_weight
+from .sampling import local_to_world1
+
+POINT, SPHERE, DISK, AREA_RECT, AREA_ELLIPSE, SUN, TRIANGLE, WORLD = range(8)
+
+LightTables = namedtuple("LightTables", [
+    "kind",            # (n,) int32, one of the constants above
+    "position",        # (n,3) lamp centre; triangle centroid
+    "strength",        # (n,3) radiance (area-like kinds, sun cone, world) or intensity (point, delta sun)
+    "radius",          # (n,) sphere / soft-point radius
+    "axis_u",          # (n,3) area light edge vectors (full extent)
+    "axis_v",          # (n,3)
+    "normal",          # (n,3) emitting direction (area, triangle), spot axis, -sun travel direction
+    "area",            # (n,)
+    "cos_half",        # (n,) sun cone / spot cone half-angle cosine
+    "spot_smooth",     # (n,) 1 / ((1 - cos_half) * blend); 0: not a spot
+    "two_sided",       # (n,) bool, emissive triangles
+    "triangle",        # (n,) int64 triangle id of TRIANGLE rows, else -1
+    "camera_visible",  # (n,) bool
+    "select_prob",     # (n,) probability of selecting the row (by power)
+    "select_cdf",      # (n,) cumulative select_prob, last entry 1
+    "corners",         # (T,3,3) all triangles of the scene
+    "row_of_triangle",  # (T,) int64 light row of each triangle, -1 if not emissive
+    "hittable_rows",   # (H,) int64 lamps a ray can hit (sphere, soft point disk, area)
+    "sun_rows",        # (S,) int64 suns with a cone (angle > 0)
+    "world_row",       # int, -1 without a world emitter
+    "world_radiance",  # (3,)
+    "count",           # int, number of rows
+])
+
+_INF = np.inf
+_FOUR_PI = 4.0 * np.pi
+
+
+# ---------------------------------------------------------------------------------------------
+# Scalar warps and ray tests
+# ---------------------------------------------------------------------------------------------
+@kernel
+def _concentric_disk1(u1, u2):
+    """Shirley-Chiu concentric map of the unit square to the unit disk (sampling.concentric_disk)."""
+    a = 2.0 * u1 - 1.0
+    b = 2.0 * u2 - 1.0
+    if a == 0.0 and b == 0.0:
+        return 0.0, 0.0
+    if abs(a) > abs(b):
+        r, phi = a, (np.pi / 4.0) * (b / a)
+    else:
+        r, phi = b, np.pi / 2.0 - (np.pi / 4.0) * (a / b)
+    return r * np.cos(phi), r * np.sin(phi)
+
+
+@kernel
+def _uniform_sphere1(u1, u2):
+    z = 1.0 - 2.0 * u1
+    r = np.sqrt(max(1.0 - z * z, 0.0))
+    phi = 2.0 * np.pi * u2
+    return r * np.cos(phi), r * np.sin(phi), z
+
+
+@kernel
+def _uniform_cone1(ax, ay, az, cos_max, u1, u2):
+    """Uniform direction in the cone of half-angle acos(cos_max) around a unit axis."""
+    cos_t = 1.0 - u1 * (1.0 - cos_max)
+    sin_t = np.sqrt(max(1.0 - cos_t * cos_t, 0.0))
+    phi = 2.0 * np.pi * u2
+    return local_to_world1(ax, ay, az, sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t)
+
+
+@kernel
+def _ray_sphere1(ox, oy, oz, dx, dy, dz, cx, cy, cz, radius):
+    """Nearest intersection distance > 1e-9 of a unit ray with a sphere (inf if none)."""
+    px, py, pz = ox - cx, oy - cy, oz - cz
+    b = px * dx + py * dy + pz * dz
+    c = px * px + py * py + pz * pz - radius * radius
+    disc = b * b - c
+    if disc < 0.0:
+        return _INF
+    sq = np.sqrt(disc)
+    if -b - sq > 1e-9:
+        return -b - sq
+    if -b + sq > 1e-9:
+        return -b + sq
+    return _INF
+
+
+@kernel
+def _ray_plane1(ox, oy, oz, dx, dy, dz, px, py, pz, nx, ny, nz):
+    """Distance > 1e-9 along a unit ray to the plane through p with normal n (inf when parallel
+    or behind), and cos(ray, n)."""
+    cos = dx * nx + dy * ny + dz * nz
+    if abs(cos) <= 1e-12:
+        return _INF, cos
+    t = ((px - ox) * nx + (py - oy) * ny + (pz - oz) * nz) / cos
+    return (t if t > 1e-9 else _INF), cos
+
+
+@kernel
+def _spot_mask1(T, row, lx, ly, lz):
+    """Spot cone attenuation for the unit direction l from the light to the shading point:
+    smoothstep((cos_angle - cos_half) / ((1 - cos_half) * blend)) (Cycles kernel/light/spot.h
+    spot_attenuation); 1 for lights that are not spots."""
+    smooth = T.spot_smooth[row]
+    if smooth <= 0.0:
+        return 1.0
+    cos_angle = lx * T.normal[row, 0] + ly * T.normal[row, 1] + lz * T.normal[row, 2]
+    f = min(max((cos_angle - T.cos_half[row]) * smooth, 0.0), 1.0)
+    return f * f * (3.0 - 2.0 * f)
+
+
+@kernel
+def _unit(x, y, z):
+    d = np.sqrt(x * x + y * y + z * z)
+    inv = 1.0 / max(d, 1e-30)
+    return x * inv, y * inv, z * inv, d
+
+
+# ---------------------------------------------------------------------------------------------
+# Selection
+# ---------------------------------------------------------------------------------------------
+@kernel
+def select_light(T, u):
+    """Row with select_cdf[row-1] <= u < select_cdf[row] (searchsorted right), clamped to
+    count - 1 (-1 without lights)."""
+    cdf = T.select_cdf
+    lo, hi = 0, T.count
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if cdf[mid] <= u:
+            lo = mid + 1
+        else:
+            hi = mid
+    return np.int64(min(lo, T.count - 1))
+
+
+@kernel
+def light_has_position(T, row):
+    """Whether the row's emitter sits at a finite position (usable for equiangular sampling)."""
+    k = T.kind[row]
+    return k != SUN and k != WORLD
+
+
+@kernel
+def light_position(T, row):
+    return T.position[row, 0], T.position[row, 1], T.position[row, 2]
+
+
+# ---------------------------------------------------------------------------------------------
+# Sampling: (wx, wy, wz, dist, value r, g, b, pdf) before the selection probability
+# ---------------------------------------------------------------------------------------------
+@kernel
+def _sample_point(T, row, px, py, pz):
+    """Delta point/spot light: intensity / d^2 (Cycles kernel/light/point.h, radius 0)."""
+    wx, wy, wz, d = _unit(T.position[row, 0] - px, T.position[row, 1] - py, T.position[row, 2] - pz)
+    s = _spot_mask1(T, row, -wx, -wy, -wz) / max(d * d, 1e-30)
+    return wx, wy, wz, d, T.strength[row, 0] * s, T.strength[row, 1] * s, T.strength[row, 2] * s, 0.0
+
+
+@kernel
+def _sample_disk(T, row, px, py, pz, u1, u2):
+    """Soft-falloff point light: a disk of the lamp's radius facing the shading point, sampled by
+    area (Cycles kernel/light/point.h, !is_sphere); spot mask per sampled point (spot.h)."""
+    cx, cy, cz = T.position[row, 0], T.position[row, 1], T.position[row, 2]
+    nx, ny, nz, _ = _unit(px - cx, py - cy, pz - cz)  # disk normal points at the shading point
+    x, y = _concentric_disk1(u1, u2)
+    radius = T.radius[row]
+    ox, oy, oz = local_to_world1(nx, ny, nz, x * radius, y * radius, 0.0)
+    wx, wy, wz, dist = _unit(cx + ox - px, cy + oy - py, cz + oz - pz)
+    cos_l = max(-(nx * wx + ny * wy + nz * wz), 0.0)
+    pdf = dist * dist / max(cos_l * np.pi * radius * radius, 1e-30) if cos_l > 0.0 else 0.0
+    s = _spot_mask1(T, row, -wx, -wy, -wz) / max(pdf, 1e-30) if pdf > 0.0 else 0.0
+    return wx, wy, wz, dist, T.strength[row, 0] * s, T.strength[row, 1] * s, T.strength[row, 2] * s, pdf
+
+
+@kernel
+def _sample_sphere(T, row, px, py, pz, u1, u2):
+    """Sphere light: uniform cone of the sphere's solid angle from outside, uniform sphere from
+    inside (Cycles kernel/light/point.h, is_sphere); spot mask only from outside (spot.h)."""
+    cx, cy, cz = T.position[row, 0], T.position[row, 1], T.position[row, 2]
+    ax, ay, az, d = _unit(cx - px, cy - py, cz - pz)
+    r = T.radius[row]
+    if d > r:
+        sin2 = min((r / max(d, 1e-30)) ** 2, 1.0)
+        cos_max = np.sqrt(1.0 - sin2)
+        wx, wy, wz = _uniform_cone1(ax, ay, az, cos_max, u1, u2)
+        pdf = 1.0 / (2.0 * np.pi * max(1.0 - cos_max, 1e-12))
+        mask = _spot_mask1(T, row, -wx, -wy, -wz)
+    else:
+        wx, wy, wz = _uniform_sphere1(u1, u2)
+        pdf = 1.0 / _FOUR_PI
+        mask = 1.0
+    t = _ray_sphere1(px, py, pz, wx, wy, wz, cx, cy, cz, r)
+    dist = t if t < _INF else d
+    s = mask / pdf
+    return wx, wy, wz, dist, T.strength[row, 0] * s, T.strength[row, 1] * s, T.strength[row, 2] * s, pdf
+
+
+@kernel
+def _sample_surface_point(T, row, px, py, pz, yx, yy, yz, one_sided):
+    """Point y sampled uniformly by area on a flat emitter: area pdf converted to solid angle,
+    dist^2 / (cos_light * area) (Cycles kernel/light/area.h, triangle.h)."""
+    wx, wy, wz, dist = _unit(yx - px, yy - py, yz - pz)
+    cos_l = -(T.normal[row, 0] * wx + T.normal[row, 1] * wy + T.normal[row, 2] * wz)
+    cos_eff = max(cos_l, 0.0) if one_sided else abs(cos_l)
+    pdf = dist * dist / max(cos_eff * T.area[row], 1e-30) if cos_eff > 1e-12 else 0.0
+    s = 1.0 / max(pdf, 1e-30) if pdf > 0.0 else 0.0
+    return wx, wy, wz, dist, T.strength[row, 0] * s, T.strength[row, 1] * s, T.strength[row, 2] * s, pdf
+
+
+@kernel
+def _sample_area(T, row, px, py, pz, u1, u2, ellipse):
+    """Rectangle / ellipse area light, uniform by area, one-sided (Cycles kernel/light/area.h)."""
+    if ellipse:
+        x, y = _concentric_disk1(u1, u2)
+        x, y = 0.5 * x, 0.5 * y
+    else:
+        x, y = u1 - 0.5, u2 - 0.5
+    yx = T.position[row, 0] + T.axis_u[row, 0] * x + T.axis_v[row, 0] * y
+    yy = T.position[row, 1] + T.axis_u[row, 1] * x + T.axis_v[row, 1] * y
+    yz = T.position[row, 2] + T.axis_u[row, 2] * x + T.axis_v[row, 2] * y
+    return _sample_surface_point(T, row, px, py, pz, yx, yy, yz, True)
+
+
+@kernel
+def _sample_triangle(T, row, px, py, pz, u1, u2):
+    """Emissive triangle, uniform by area (Cycles kernel/light/triangle.h area sampling)."""
+    su = np.sqrt(u1)
+    b1, b2 = 1.0 - su, u2 * su
+    b0 = 1.0 - b1 - b2
+    c = T.corners[T.triangle[row]]
+    yx = c[0, 0] * b0 + c[1, 0] * b1 + c[2, 0] * b2
+    yy = c[0, 1] * b0 + c[1, 1] * b1 + c[2, 1] * b2
+    yz = c[0, 2] * b0 + c[1, 2] * b1 + c[2, 2] * b2
+    return _sample_surface_point(T, row, px, py, pz, yx, yy, yz, not T.two_sided[row])
+
+
+@kernel
+def _sample_sun(T, row, u1, u2):
+    """Sun: uniform over its cone when it has an angle, else a delta direction with irradiance as
+    value (Cycles kernel/light/distant.h)."""
+    ax, ay, az = T.normal[row, 0], T.normal[row, 1], T.normal[row, 2]
+    cos_h = T.cos_half[row]
+    if cos_h < 1.0:
+        wx, wy, wz = _uniform_cone1(ax, ay, az, cos_h, u1, u2)
+        pdf = 1.0 / (2.0 * np.pi * max(1.0 - cos_h, 1e-300))
+        s = 1.0 / pdf
+    else:
+        wx, wy, wz = ax, ay, az
+        pdf = 0.0
+        s = 1.0
+    return wx, wy, wz, _INF, T.strength[row, 0] * s, T.strength[row, 1] * s, T.strength[row, 2] * s, pdf
+
+
+@kernel
+def _sample_world(T, row, u1, u2):
+    """Constant background, uniform sphere (Cycles kernel/light/background.h without an
+    importance map)."""
+    wx, wy, wz = _uniform_sphere1(u1, u2)
+    return (wx, wy, wz, _INF, T.strength[row, 0] * _FOUR_PI, T.strength[row, 1] * _FOUR_PI,
+            T.strength[row, 2] * _FOUR_PI, 1.0 / _FOUR_PI)
+
+
+@kernel
+def sample_light(T, row, px, py, pz, u1, u2):
+    """Sample light `row` as seen from p: (wx, wy, wz, dist, vr, vg, vb, pdf) with w the unit
+    direction to the light, dist the distance to the sampled point (inf for distant lights),
+    v = emitted radiance / pdf (intensity / d^2 for delta lights) divided by the selection
+    probability, pdf = solid-angle pdf times the selection probability (0 for delta lights)."""
+    k = T.kind[row]
+    if k == POINT:
+        wx, wy, wz, dist, vr, vg, vb, pdf = _sample_point(T, row, px, py, pz)
+    elif k == DISK:
+        wx, wy, wz, dist, vr, vg, vb, pdf = _sample_disk(T, row, px, py, pz, u1, u2)
+    elif k == SPHERE:
+        wx, wy, wz, dist, vr, vg, vb, pdf = _sample_sphere(T, row, px, py, pz, u1, u2)
+    elif k == AREA_RECT or k == AREA_ELLIPSE:
+        wx, wy, wz, dist, vr, vg, vb, pdf = _sample_area(T, row, px, py, pz, u1, u2, k == AREA_ELLIPSE)
+    elif k == TRIANGLE:
+        wx, wy, wz, dist, vr, vg, vb, pdf = _sample_triangle(T, row, px, py, pz, u1, u2)
+    elif k == SUN:
+        wx, wy, wz, dist, vr, vg, vb, pdf = _sample_sun(T, row, u1, u2)
+    elif k == WORLD:
+        wx, wy, wz, dist, vr, vg, vb, pdf = _sample_world(T, row, u1, u2)
+    else:
+        wx, wy, wz, dist, vr, vg, vb, pdf = 0.0, 0.0, 1.0, _INF, 0.0, 0.0, 0.0, 0.0
+    sel = T.select_prob[row]
+    if sel > 0.0:
+        inv = 1.0 / sel
+        vr, vg, vb = vr * inv, vg * inv, vb * inv
+    else:
+        vr, vg, vb = 0.0, 0.0, 0.0
+    return wx, wy, wz, dist, vr, vg, vb, pdf * sel
+
+
+# ---------------------------------------------------------------------------------------------
+# Evaluation of emitters found by BSDF / phase sampling (for MIS against light sampling)
+# ---------------------------------------------------------------------------------------------
+@kernel
+def triangle_emission(T, prim, ox, oy, oz, dx, dy, dz, t, front):
+    """Radiance and light-sampling pdf (solid angle, incl. selection) of triangle `prim` hit at
+    distance t along the unit ray o + t d from the previous vertex o; zeros if prim does not
+    emit. Two-sided unless the material says otherwise (Cycles closure/emissive.h)."""
+    if prim < 0 or prim >= T.row_of_triangle.shape[0]:
+        return 0.0, 0.0, 0.0, 0.0
+    row = T.row_of_triangle[prim]
+    if row < 0:
+        return 0.0, 0.0, 0.0, 0.0
+    visible = 1.0 if (T.two_sided[row] or front) else 0.0
+    cos_l = abs(T.normal[row, 0] * dx + T.normal[row, 1] * dy + T.normal[row, 2] * dz)
+    pdf = T.select_prob[row] * t * t / max(cos_l * T.area[row], 1e-30)
+    return T.strength[row, 0] * visible, T.strength[row, 1] * visible, T.strength[row, 2] * visible, pdf
+
+
+@kernel
+def distant_emission(T, row, dx, dy, dz):
+    """Radiance and light pdf (incl. selection) of the world or a sun cone seen along unit d
+    (Cycles kernel/light/background.h, distant.h distant_light_intersect)."""
+    if T.kind[row] == WORLD:
+        return (T.world_radiance[0], T.world_radiance[1], T.world_radiance[2],
+                T.select_prob[row] / _FOUR_PI)
+    cos_h = T.cos_half[row]
+    if cos_h >= 1.0 or dx * T.normal[row, 0] + dy * T.normal[row, 1] + dz * T.normal[row, 2] < cos_h:
+        return 0.0, 0.0, 0.0, 0.0
+    pdf = T.select_prob[row] / (2.0 * np.pi * (1.0 - cos_h))
+    return T.strength[row, 0], T.strength[row, 1], T.strength[row, 2], pdf
+
+
+@kernel
+def escaped_emission_mis(T, dx, dy, dz, prev_pdf, camera_ray):
+    """MIS-weighted radiance of every distant emitter (world, sun cones) seen along unit d by a
+    ray sampled with pdf prev_pdf (0: camera ray or delta scattering, full weight). Emitters
+    hidden from the camera give nothing to camera rays."""
+    r, g, b = 0.0, 0.0, 0.0
+    if T.world_row >= 0:
+        er, eg, eb, pdf = distant_emission(T, T.world_row, dx, dy, dz)
+        w = mis_weight(prev_pdf, pdf)
+        r, g, b = r + er * w, g + eg * w, b + eb * w
+    for i in range(T.sun_rows.shape[0]):
+        row = T.sun_rows[i]
+        if camera_ray and not T.camera_visible[row]:
+            continue
+        er, eg, eb, pdf = distant_emission(T, row, dx, dy, dz)
+        if pdf > 0.0:
+            w = mis_weight(prev_pdf, pdf)
+            r, g, b = r + er * w, g + eg * w, b + eb * w
+    return r, g, b
+
+
+@kernel
+def lamp_crossing(T, k, ox, oy, oz, dx, dy, dz, tmin, tmax):
+    """Lamp T.hittable_rows[k] crossed by the unit ray o + t d within (tmin, tmax]: (t, r, g, b,
+    pdf), t = inf if missed; pdf is the light-sampling pdf from o (the previous scattering vertex)
+    incl. selection. Lamps do not block rays (Cycles integrator/shade_light.h). The caller checks
+    T.camera_visible itself."""
+    row = T.hittable_rows[k]
+    kind = T.kind[row]
+    cx, cy, cz = T.position[row, 0], T.position[row, 1], T.position[row, 2]
+    mask = 1.0
+    if kind == SPHERE:
+        # pdf of the cone sampling in _sample_sphere (Cycles point.h point_light_pdf)
+        r = T.radius[row]
+        t = _ray_sphere1(ox, oy, oz, dx, dy, dz, cx, cy, cz, r)
+        lx, ly, lz, dc = _unit(ox - cx, oy - cy, oz - cz)
+        d2, r2 = dc * dc, r * r
+        if d2 > r2:
+            cos_max = np.sqrt(max(1.0 - r2 / max(d2, 1e-30), 0.0))
+            pdf = 1.0 / (2.0 * np.pi * max(1.0 - cos_max, 1e-12))
+        else:
+            pdf = 1.0 / _FOUR_PI
+        mask = _spot_mask1(T, row, lx, ly, lz)
+    elif kind == DISK:
+        # the disk faces the previous vertex, as when it was sampled from there (point.h)
+        nx, ny, nz, _ = _unit(ox - cx, oy - cy, oz - cz)
+        t, cos_l = _ray_plane1(ox, oy, oz, dx, dy, dz, cx, cy, cz, nx, ny, nz)
+        if t < _INF:
+            hx, hy, hz = ox + dx * t - cx, oy + dy * t - cy, oz + dz * t - cz
+            if hx * hx + hy * hy + hz * hz > T.radius[row] ** 2:
+                t = _INF
+        pdf = t * t / max(abs(cos_l) * np.pi * T.radius[row] ** 2, 1e-30)
+        mask = _spot_mask1(T, row, nx, ny, nz)
+    else:
+        # rectangle / ellipse, one-sided: seen from the emitting side only (area.h)
+        nx, ny, nz = T.normal[row, 0], T.normal[row, 1], T.normal[row, 2]
+        t, cos_l = _ray_plane1(ox, oy, oz, dx, dy, dz, cx, cy, cz, nx, ny, nz)
+        if cos_l >= 0.0:
+            t = _INF
+        if t < _INF:
+            hx, hy, hz = ox + dx * t - cx, oy + dy * t - cy, oz + dz * t - cz
+            ux, uy, uz = T.axis_u[row, 0], T.axis_u[row, 1], T.axis_u[row, 2]
+            vx, vy, vz = T.axis_v[row, 0], T.axis_v[row, 1], T.axis_v[row, 2]
+            x = (hx * ux + hy * uy + hz * uz) / (ux * ux + uy * uy + uz * uz)
+            y = (hx * vx + hy * vy + hz * vz) / (vx * vx + vy * vy + vz * vz)
+            if kind == AREA_ELLIPSE:
+                inside = x * x + y * y <= 0.25
+            else:
+                inside = abs(x) <= 0.5 and abs(y) <= 0.5
+            if not inside:
+                t = _INF
+        pdf = t * t / max(abs(cos_l) * T.area[row], 1e-30)
+    if not (t > tmin and t <= tmax) or t == _INF:
+        return _INF, 0.0, 0.0, 0.0, 0.0
+    return (t, T.strength[row, 0] * mask, T.strength[row, 1] * mask, T.strength[row, 2] * mask,
+            pdf * T.select_prob[row])
+
+
+# ---------------------------------------------------------------------------------------------
+# Loops behind LightSet's numpy-facing methods
+# ---------------------------------------------------------------------------------------------
+@kernel
+def select_many(T, u, out):
+    for i in range(u.shape[0]):
+        out[i] = select_light(T, u[i])
+
+
+@kernel
+def has_position_many(T, rows, out):
+    for i in range(rows.shape[0]):
+        out[i] = light_has_position(T, rows[i])
+
+
+@kernel
+def sample_many(T, rows, p, u1, u2, wi, dist, value, pdf):
+    for i in range(rows.shape[0]):
+        (wi[i, 0], wi[i, 1], wi[i, 2], dist[i], value[i, 0], value[i, 1], value[i, 2],
+         pdf[i]) = sample_light(T, rows[i], p[i, 0], p[i, 1], p[i, 2], u1[i], u2[i])
+
+
+@kernel
+def triangle_emission_many(T, prim, o, d, t, front, radiance, pdf):
+    for i in range(prim.shape[0]):
+        radiance[i, 0], radiance[i, 1], radiance[i, 2], pdf[i] = triangle_emission(
+            T, prim[i], o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], t[i], front[i])
+
+
+@kernel
+def distant_emission_many(T, row, d, radiance, pdf):
+    for i in range(d.shape[0]):
+        radiance[i, 0], radiance[i, 1], radiance[i, 2], pdf[i] = distant_emission(T, row, d[i, 0], d[i, 1], d[i, 2])
+
+
+@kernel
+def lamp_crossing_many(T, k, o, d, tmin, tmax, t, radiance, pdf):
+    """lamp_crossing for every ray; returns how many rays cross the lamp."""
+    found = 0
+    for i in range(o.shape[0]):
+        t[i], radiance[i, 0], radiance[i, 1], radiance[i, 2], pdf[i] = lamp_crossing(
+            T, k, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], tmin[i], tmax[i])
+        if t[i] < _INF:
+            found += 1
+    return found
