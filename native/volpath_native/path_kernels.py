@@ -28,7 +28,7 @@ from collections import namedtuple
 import numpy as np
 
 from .jit import inline_stage_kernel, stage_kernel, uniform1
-from .lights import (escaped_emission_mis, lamp_crossing, light_has_position, light_position, sample_light,
+from .light_kernels import (escaped_emission_mis, lamp_crossing, light_has_position, light_position, sample_light,
                      select_light, triangle_emission)
 from .media import (channel_probabilities1, distance_pdf1, emission_integral1, equiangular_pdf1,
                     equiangular_sample1, equiangular_setup1, sample_distance1, sample_distance_truncated1,
