@@ -8,7 +8,9 @@ passes with temporaries and gathers -- the numpy version spent ~5x Embree's time
 stage as a compiled ParallelFor over its queue.
 
 - cache=True: compiled machine code is kept next to the sources (or in NUMBA_CACHE_DIR), so only
-  the first render after an install pays for compilation.
+  the first render after an install pays for compilation. numba invalidates a cached function
+  only when its own file changes, not when a function it calls in another module does: after
+  editing a kernel module, `make clean-kernels` (developers only; installs start clean).
 - nogil=True: kernels release the GIL, so render threads run them in parallel.
 - error_model="numpy": division by zero gives inf/nan like numpy instead of raising, and no
   per-division checks slow the loops; kernels guard their divisions explicitly.
@@ -19,6 +21,12 @@ import numba
 import numpy as np
 
 kernel = numba.njit(cache=True, nogil=True, error_model="numpy")
+# The per-path stage loops: no allocation inside (callers pass every buffer), hence no reference
+# counting of the many table arrays they touch -- with it, passing the scene tables to a callee
+# cost more than the callee's arithmetic. inline="always" for large helpers of a stage that take
+# the tables (LLVM would not inline them and every call would copy the tables' descriptors).
+stage_kernel = numba.njit(cache=True, nogil=True, error_model="numpy", _nrt=False)
+inline_stage_kernel = numba.njit(cache=True, nogil=True, error_model="numpy", _nrt=False, inline="always")
 
 # splitmix64 constants: the same counter-based hash as sampling.uniform (Steele et al. 2014).
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)

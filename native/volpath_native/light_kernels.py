@@ -11,7 +11,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .jit import kernel
+from .jit import stage_kernel
 from .mis import mis_weight
 from .sampling import local_to_world1
 
@@ -49,7 +49,7 @@ _FOUR_PI = 4.0 * np.pi
 # ---------------------------------------------------------------------------------------------
 # Scalar warps and ray tests
 # ---------------------------------------------------------------------------------------------
-@kernel
+@stage_kernel
 def _concentric_disk1(u1, u2):
     """Shirley-Chiu concentric map of the unit square to the unit disk (sampling.concentric_disk)."""
     a = 2.0 * u1 - 1.0
@@ -63,7 +63,7 @@ def _concentric_disk1(u1, u2):
     return r * np.cos(phi), r * np.sin(phi)
 
 
-@kernel
+@stage_kernel
 def _uniform_sphere1(u1, u2):
     z = 1.0 - 2.0 * u1
     r = np.sqrt(max(1.0 - z * z, 0.0))
@@ -71,7 +71,7 @@ def _uniform_sphere1(u1, u2):
     return r * np.cos(phi), r * np.sin(phi), z
 
 
-@kernel
+@stage_kernel
 def _uniform_cone1(ax, ay, az, cos_max, u1, u2):
     """Uniform direction in the cone of half-angle acos(cos_max) around a unit axis."""
     cos_t = 1.0 - u1 * (1.0 - cos_max)
@@ -80,7 +80,7 @@ def _uniform_cone1(ax, ay, az, cos_max, u1, u2):
     return local_to_world1(ax, ay, az, sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t)
 
 
-@kernel
+@stage_kernel
 def _ray_sphere1(ox, oy, oz, dx, dy, dz, cx, cy, cz, radius):
     """Nearest intersection distance > 1e-9 of a unit ray with a sphere (inf if none)."""
     px, py, pz = ox - cx, oy - cy, oz - cz
@@ -97,7 +97,7 @@ def _ray_sphere1(ox, oy, oz, dx, dy, dz, cx, cy, cz, radius):
     return _INF
 
 
-@kernel
+@stage_kernel
 def _ray_plane1(ox, oy, oz, dx, dy, dz, px, py, pz, nx, ny, nz):
     """Distance > 1e-9 along a unit ray to the plane through p with normal n (inf when parallel
     or behind), and cos(ray, n)."""
@@ -108,7 +108,7 @@ def _ray_plane1(ox, oy, oz, dx, dy, dz, px, py, pz, nx, ny, nz):
     return (t if t > 1e-9 else _INF), cos
 
 
-@kernel
+@stage_kernel
 def _spot_mask1(T, row, lx, ly, lz):
     """Spot cone attenuation for the unit direction l from the light to the shading point:
     smoothstep((cos_angle - cos_half) / ((1 - cos_half) * blend)) (Cycles kernel/light/spot.h
@@ -121,7 +121,7 @@ def _spot_mask1(T, row, lx, ly, lz):
     return f * f * (3.0 - 2.0 * f)
 
 
-@kernel
+@stage_kernel
 def _unit(x, y, z):
     d = np.sqrt(x * x + y * y + z * z)
     inv = 1.0 / max(d, 1e-30)
@@ -131,7 +131,7 @@ def _unit(x, y, z):
 # ---------------------------------------------------------------------------------------------
 # Selection
 # ---------------------------------------------------------------------------------------------
-@kernel
+@stage_kernel
 def select_light(T, u):
     """Row with select_cdf[row-1] <= u < select_cdf[row] (searchsorted right), clamped to
     count - 1 (-1 without lights)."""
@@ -146,14 +146,14 @@ def select_light(T, u):
     return np.int64(min(lo, T.count - 1))
 
 
-@kernel
+@stage_kernel
 def light_has_position(T, row):
     """Whether the row's emitter sits at a finite position (usable for equiangular sampling)."""
     k = T.kind[row]
     return k != SUN and k != WORLD
 
 
-@kernel
+@stage_kernel
 def light_position(T, row):
     return T.position[row, 0], T.position[row, 1], T.position[row, 2]
 
@@ -161,7 +161,7 @@ def light_position(T, row):
 # ---------------------------------------------------------------------------------------------
 # Sampling: (wx, wy, wz, dist, value r, g, b, pdf) before the selection probability
 # ---------------------------------------------------------------------------------------------
-@kernel
+@stage_kernel
 def _sample_point(T, row, px, py, pz):
     """Delta point/spot light: intensity / d^2 (Cycles kernel/light/point.h, radius 0)."""
     wx, wy, wz, d = _unit(T.position[row, 0] - px, T.position[row, 1] - py, T.position[row, 2] - pz)
@@ -169,7 +169,7 @@ def _sample_point(T, row, px, py, pz):
     return wx, wy, wz, d, T.strength[row, 0] * s, T.strength[row, 1] * s, T.strength[row, 2] * s, 0.0
 
 
-@kernel
+@stage_kernel
 def _sample_disk(T, row, px, py, pz, u1, u2):
     """Soft-falloff point light: a disk of the lamp's radius facing the shading point, sampled by
     area (Cycles kernel/light/point.h, !is_sphere); spot mask per sampled point (spot.h)."""
@@ -185,7 +185,7 @@ def _sample_disk(T, row, px, py, pz, u1, u2):
     return wx, wy, wz, dist, T.strength[row, 0] * s, T.strength[row, 1] * s, T.strength[row, 2] * s, pdf
 
 
-@kernel
+@stage_kernel
 def _sample_sphere(T, row, px, py, pz, u1, u2):
     """Sphere light: uniform cone of the sphere's solid angle from outside, uniform sphere from
     inside (Cycles kernel/light/point.h, is_sphere); spot mask only from outside (spot.h)."""
@@ -208,7 +208,7 @@ def _sample_sphere(T, row, px, py, pz, u1, u2):
     return wx, wy, wz, dist, T.strength[row, 0] * s, T.strength[row, 1] * s, T.strength[row, 2] * s, pdf
 
 
-@kernel
+@stage_kernel
 def _sample_surface_point(T, row, px, py, pz, yx, yy, yz, one_sided):
     """Point y sampled uniformly by area on a flat emitter: area pdf converted to solid angle,
     dist^2 / (cos_light * area) (Cycles kernel/light/area.h, triangle.h)."""
@@ -220,7 +220,7 @@ def _sample_surface_point(T, row, px, py, pz, yx, yy, yz, one_sided):
     return wx, wy, wz, dist, T.strength[row, 0] * s, T.strength[row, 1] * s, T.strength[row, 2] * s, pdf
 
 
-@kernel
+@stage_kernel
 def _sample_area(T, row, px, py, pz, u1, u2, ellipse):
     """Rectangle / ellipse area light, uniform by area, one-sided (Cycles kernel/light/area.h)."""
     if ellipse:
@@ -234,7 +234,7 @@ def _sample_area(T, row, px, py, pz, u1, u2, ellipse):
     return _sample_surface_point(T, row, px, py, pz, yx, yy, yz, True)
 
 
-@kernel
+@stage_kernel
 def _sample_triangle(T, row, px, py, pz, u1, u2):
     """Emissive triangle, uniform by area (Cycles kernel/light/triangle.h area sampling)."""
     su = np.sqrt(u1)
@@ -247,7 +247,7 @@ def _sample_triangle(T, row, px, py, pz, u1, u2):
     return _sample_surface_point(T, row, px, py, pz, yx, yy, yz, not T.two_sided[row])
 
 
-@kernel
+@stage_kernel
 def _sample_sun(T, row, u1, u2):
     """Sun: uniform over its cone when it has an angle, else a delta direction with irradiance as
     value (Cycles kernel/light/distant.h)."""
@@ -264,7 +264,7 @@ def _sample_sun(T, row, u1, u2):
     return wx, wy, wz, _INF, T.strength[row, 0] * s, T.strength[row, 1] * s, T.strength[row, 2] * s, pdf
 
 
-@kernel
+@stage_kernel
 def _sample_world(T, row, u1, u2):
     """Constant background, uniform sphere (Cycles kernel/light/background.h without an
     importance map)."""
@@ -273,7 +273,7 @@ def _sample_world(T, row, u1, u2):
             T.strength[row, 2] * _FOUR_PI, 1.0 / _FOUR_PI)
 
 
-@kernel
+@stage_kernel
 def sample_light(T, row, px, py, pz, u1, u2):
     """Sample light `row` as seen from p: (wx, wy, wz, dist, vr, vg, vb, pdf) with w the unit
     direction to the light, dist the distance to the sampled point (inf for distant lights),
@@ -308,7 +308,7 @@ def sample_light(T, row, px, py, pz, u1, u2):
 # ---------------------------------------------------------------------------------------------
 # Evaluation of emitters found by BSDF / phase sampling (for MIS against light sampling)
 # ---------------------------------------------------------------------------------------------
-@kernel
+@stage_kernel
 def triangle_emission(T, prim, ox, oy, oz, dx, dy, dz, t, front):
     """Radiance and light-sampling pdf (solid angle, incl. selection) of triangle `prim` hit at
     distance t along the unit ray o + t d from the previous vertex o; zeros if prim does not
@@ -324,7 +324,7 @@ def triangle_emission(T, prim, ox, oy, oz, dx, dy, dz, t, front):
     return T.strength[row, 0] * visible, T.strength[row, 1] * visible, T.strength[row, 2] * visible, pdf
 
 
-@kernel
+@stage_kernel
 def distant_emission(T, row, dx, dy, dz):
     """Radiance and light pdf (incl. selection) of the world or a sun cone seen along unit d
     (Cycles kernel/light/background.h, distant.h distant_light_intersect)."""
@@ -338,7 +338,7 @@ def distant_emission(T, row, dx, dy, dz):
     return T.strength[row, 0], T.strength[row, 1], T.strength[row, 2], pdf
 
 
-@kernel
+@stage_kernel
 def escaped_emission_mis(T, dx, dy, dz, prev_pdf, camera_ray):
     """MIS-weighted radiance of every distant emitter (world, sun cones) seen along unit d by a
     ray sampled with pdf prev_pdf (0: camera ray or delta scattering, full weight). Emitters
@@ -359,7 +359,7 @@ def escaped_emission_mis(T, dx, dy, dz, prev_pdf, camera_ray):
     return r, g, b
 
 
-@kernel
+@stage_kernel
 def lamp_crossing(T, k, ox, oy, oz, dx, dy, dz, tmin, tmax):
     """Lamp T.hittable_rows[k] crossed by the unit ray o + t d within (tmin, tmax]: (t, r, g, b,
     pdf), t = inf if missed; pdf is the light-sampling pdf from o (the previous scattering vertex)
@@ -419,39 +419,39 @@ def lamp_crossing(T, k, ox, oy, oz, dx, dy, dz, tmin, tmax):
 # ---------------------------------------------------------------------------------------------
 # Loops behind LightSet's numpy-facing methods
 # ---------------------------------------------------------------------------------------------
-@kernel
+@stage_kernel
 def select_many(T, u, out):
     for i in range(u.shape[0]):
         out[i] = select_light(T, u[i])
 
 
-@kernel
+@stage_kernel
 def has_position_many(T, rows, out):
     for i in range(rows.shape[0]):
         out[i] = light_has_position(T, rows[i])
 
 
-@kernel
+@stage_kernel
 def sample_many(T, rows, p, u1, u2, wi, dist, value, pdf):
     for i in range(rows.shape[0]):
         (wi[i, 0], wi[i, 1], wi[i, 2], dist[i], value[i, 0], value[i, 1], value[i, 2],
          pdf[i]) = sample_light(T, rows[i], p[i, 0], p[i, 1], p[i, 2], u1[i], u2[i])
 
 
-@kernel
+@stage_kernel
 def triangle_emission_many(T, prim, o, d, t, front, radiance, pdf):
     for i in range(prim.shape[0]):
         radiance[i, 0], radiance[i, 1], radiance[i, 2], pdf[i] = triangle_emission(
             T, prim[i], o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], t[i], front[i])
 
 
-@kernel
+@stage_kernel
 def distant_emission_many(T, row, d, radiance, pdf):
     for i in range(d.shape[0]):
         radiance[i, 0], radiance[i, 1], radiance[i, 2], pdf[i] = distant_emission(T, row, d[i, 0], d[i, 1], d[i, 2])
 
 
-@kernel
+@stage_kernel
 def lamp_crossing_many(T, k, o, d, tmin, tmax, t, radiance, pdf):
     """lamp_crossing for every ray; returns how many rays cross the lamp."""
     found = 0

@@ -372,8 +372,10 @@ def transmittance1(sigma, distance):
 
 @kernel
 def transmittance3(sigma_t, distance):
-    return (transmittance1(sigma_t[0], distance), transmittance1(sigma_t[1], distance),
-            transmittance1(sigma_t[2], distance))
+    t0 = transmittance1(sigma_t[0], distance)
+    if sigma_t[1] == sigma_t[0] and sigma_t[2] == sigma_t[0]:  # grey medium: one exp
+        return t0, t0, t0
+    return t0, transmittance1(sigma_t[1], distance), transmittance1(sigma_t[2], distance)
 
 
 @kernel
@@ -434,9 +436,13 @@ def sample_distance_truncated1(sigma_t, p, u_channel, u, t_end):
 
 
 @kernel
-def truncated_distance_pdf1(sigma_t, p, t, t_end):
-    total = 0.0
+def truncated_distance_pdf1(sigma_t, p, tr, t_end):
+    """Channel-averaged density of sample_distance_truncated1 at the distance where the
+    transmittance is tr (= transmittance3(sigma_t, t), which the caller needs anyway)."""
     finite = np.isfinite(t_end)
+    grey = sigma_t[1] == sigma_t[0] and sigma_t[2] == sigma_t[0]
+    total = 0.0
+    mass = 1.0
     for c in range(3):
         s = sigma_t[c]
         if finite:
@@ -444,9 +450,11 @@ def truncated_distance_pdf1(sigma_t, p, t, t_end):
             if optical < 1e-9:
                 density = 1.0 / t_end if t_end > 0.0 else 0.0
             else:
-                density = s * np.exp(-s * t) / -np.expm1(-optical)
+                if c == 0 or not grey:
+                    mass = -np.expm1(-optical)
+                density = s * tr[c] / mass
         else:
-            density = s * np.exp(-s * t)
+            density = s * tr[c]
         total += p[c] * density
     return total
 

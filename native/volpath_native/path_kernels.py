@@ -1,0 +1,617 @@
+"""Compiled wavefront stages: one loop over the live paths per stage, between the bulk Embree
+queries that integrator.py issues (pbrt-v4 src/pbrt/wavefront/integrator.cpp runs the same stages
+as ParallelFor loops over its queues).
+
+Path state is a structure of arrays packed for locality: `F` (n, NF) float64 fields, `I` (n, NI)
+int64 fields, `K` (n,) uint64 random keys, `C` (n, V) int8 volume-stack counters. Shadow rays
+produced by a stage go to a queue (`SF`, `SI`, `SC`) and are traced in bulk afterwards.
+
+Estimators and their references (each block below says which it implements):
+- free flight in chromatic media: one-sample spectral MIS, channel pdf averaged (pbrt-v4
+  media.h SampleT_maj; Cycles kernel/integrator/shade_volume.h volume_sample_channel).
+- direct light in media: a separate NEE vertex per segment whose distance is drawn from
+  equiangular (toward the chosen light) or distance sampling, one-sample MIS with the mixture
+  (balance) pdf (Kulla & Fajardo 2012; Cycles shade_volume.h volume_equiangular_sample /
+  volume_equiangular_pdf, which weights with the power heuristic instead); light vs phase
+  sampling combined with the power heuristic.
+- light vs BSDF/phase sampling for hittable emitters: power heuristic (Veach 1997; Cycles
+  kernel/sample/mis.h). Both NEE vertices use weights that depend only on the (vertex, direction)
+  pair, so the two estimators sum to the direct light exactly.
+- bounce limits: Cycles' path_state.h: after a scatter the counters grow; exceeding a limit sets
+  "terminate after transparent" (the path still crosses null boundaries and collects emission
+  with MIS, then ends). Russian roulette: survive with min(sqrt(max beta), 1).
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from .jit import inline_stage_kernel, stage_kernel, uniform1
+from .light_kernels import (escaped_emission_mis, lamp_crossing, light_has_position, light_position, sample_light,
+                     select_light, triangle_emission)
+from .media import (channel_probabilities1, distance_pdf1, emission_integral1, equiangular_pdf1,
+                    equiangular_sample1, equiangular_setup1, sample_distance1, sample_distance_truncated1,
+                    transmittance1, transmittance3, truncated_distance_pdf1)
+from .mis import mis_weight, power_heuristic
+from .phase import hg_eval1, hg_sample1
+from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, cosine_hemisphere1
+
+# F columns
+O, D, BETA, PREV = 0, 3, 6, 9
+TMAX, PREV_PDF, TRAVELLED, LEAD = 12, 13, 14, 15
+SS, ST, EM, G = 16, 19, 22, 25
+NF = 26
+# I columns
+PID, BOUNCE, DIFFUSE, VOLUME, BOUNDS, TAT = range(6)
+NI = 6
+# shadow queue SF columns (SI holds the path id)
+S_O, S_D, S_REMAINING, S_CONTRIB, S_ST, S_LEAD = 0, 3, 6, 7, 10, 13
+NSF = 14
+
+# Random dimensions within one iteration (see sampling.event_dimension).
+D_CHANNEL, D_DISTANCE, D_MED_SELECT, D_MED_TECH, D_MED_T, D_MED_CHANNEL, D_MED_LU, D_MED_LV, \
+    D_PHASE_U, D_PHASE_V, D_RR, D_SURF_SELECT, D_SURF_LU, D_SURF_LV, D_BSDF_U, D_BSDF_V = range(16)
+
+MAX_VOLUME_BOUNDS = 1024  # Cycles' VOLUME_BOUNDS_MAX: null crossings are not transparent bounces
+VOLUME_SAMPLING = {"mis": 0, "distance": 1, "equiangular": 2}
+
+# Everything the stages read about the scene (built once per scene by integrator.py).
+SceneTables = namedtuple("SceneTables", [
+    "tri_null", "tri_emissive", "tri_albedo", "normals", "corner_normals", "has_smooth", "tri_volume",
+    "vol_sigma_s", "vol_sigma_a", "vol_emission", "vol_g", "vol_is_grid",
+    "world_sigma_s", "world_sigma_a", "world_emission", "world_g",
+    "phase_g", "vol_lobe_sigma", "world_lobe_sigma", "mixed_phase",
+    "epsilon", "any_medium", "max_bounces", "diffuse_bounces", "volume_bounces", "rr_min_bounces",
+    "volume_sampling"])
+
+
+@stage_kernel
+def _u(K, p, iteration, offset):
+    return uniform1(K[p], CAMERA_DIMS + iteration * DIMS_PER_EVENT + offset)
+
+
+@stage_kernel
+def _get3(A, p, col):
+    return A[p, col], A[p, col + 1], A[p, col + 2]
+
+
+@stage_kernel
+def _set3(A, p, col, v):
+    A[p, col] = v[0]
+    A[p, col + 1] = v[1]
+    A[p, col + 2] = v[2]
+
+
+@stage_kernel
+def _max3(v):
+    return max(v[0], max(v[1], v[2]))
+
+
+@stage_kernel
+def _mul3(a, b):
+    return a[0] * b[0], a[1] * b[1], a[2] * b[2]
+
+
+@stage_kernel
+def _scale3(a, s):
+    return a[0] * s, a[1] * s, a[2] * s
+
+
+@stage_kernel
+def _dot3(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@stage_kernel
+def _add_radiance(L, pid, v):
+    L[pid, 0] += v[0]
+    L[pid, 1] += v[1]
+    L[pid, 2] += v[2]
+
+
+# ---------------------------------------------------------------------------------------------
+# Volume stack (Cycles kernel/integrator/volume_stack.h): counters per volume, coefficients add
+# ---------------------------------------------------------------------------------------------
+@stage_kernel
+def stack_coefficients(S, C, p, F):
+    """Homogeneous sigma_s, sigma_t, emission and g of path p's stack, written to F. g is the
+    sigma_s-weighted mean: exact where one g scatters; mixed stacks use phase components."""
+    ss0, ss1, ss2 = S.world_sigma_s[0], S.world_sigma_s[1], S.world_sigma_s[2]
+    sa0, sa1, sa2 = S.world_sigma_a[0], S.world_sigma_a[1], S.world_sigma_a[2]
+    em0, em1, em2 = S.world_emission[0], S.world_emission[1], S.world_emission[2]
+    g_weight = (ss0 + ss1 + ss2) / 3.0
+    g_sum = g_weight * S.world_g
+    for v in range(S.vol_g.shape[0]):
+        if C[p, v] > 0 and not S.vol_is_grid[v]:
+            ss0 += S.vol_sigma_s[v, 0]
+            ss1 += S.vol_sigma_s[v, 1]
+            ss2 += S.vol_sigma_s[v, 2]
+            sa0 += S.vol_sigma_a[v, 0]
+            sa1 += S.vol_sigma_a[v, 1]
+            sa2 += S.vol_sigma_a[v, 2]
+            em0 += S.vol_emission[v, 0]
+            em1 += S.vol_emission[v, 1]
+            em2 += S.vol_emission[v, 2]
+            w = (S.vol_sigma_s[v, 0] + S.vol_sigma_s[v, 1] + S.vol_sigma_s[v, 2]) / 3.0
+            g_weight += w
+            g_sum += w * S.vol_g[v]
+    F[p, SS], F[p, SS + 1], F[p, SS + 2] = ss0, ss1, ss2
+    F[p, ST], F[p, ST + 1], F[p, ST + 2] = ss0 + sa0, ss1 + sa1, ss2 + sa2
+    F[p, EM], F[p, EM + 1], F[p, EM + 2] = em0, em1, em2
+    F[p, G] = g_sum / g_weight if g_weight > 0.0 else 0.0
+
+
+@stage_kernel
+def initial_coefficients(S, C, F, n):
+    for p in range(n):
+        stack_coefficients(S, C, p, F)
+
+
+@stage_kernel
+def stack_sigma_t(S, C, p):
+    s0 = S.world_sigma_s[0] + S.world_sigma_a[0]
+    s1 = S.world_sigma_s[1] + S.world_sigma_a[1]
+    s2 = S.world_sigma_s[2] + S.world_sigma_a[2]
+    for v in range(S.vol_g.shape[0]):
+        if C[p, v] > 0 and not S.vol_is_grid[v]:
+            s0 += S.vol_sigma_s[v, 0] + S.vol_sigma_a[v, 0]
+            s1 += S.vol_sigma_s[v, 1] + S.vol_sigma_a[v, 1]
+            s2 += S.vol_sigma_s[v, 2] + S.vol_sigma_a[v, 2]
+    return s0, s1, s2
+
+
+@stage_kernel
+def cross_boundary(S, C, p, prim, front):
+    """Enter (front face) or leave (back face) the volume bounded by triangle prim."""
+    v = S.tri_volume[prim]
+    if v >= 0:
+        c = np.int16(C[p, v]) + (1 if front else -1)
+        C[p, v] = np.int8(min(max(c, 0), 127))
+
+
+@stage_kernel
+def _component_sigma(S, C, p, k):
+    """sigma_s (RGB) of phase component k (media of one g) in path p's stack."""
+    s0, s1, s2 = S.world_lobe_sigma[k, 0], S.world_lobe_sigma[k, 1], S.world_lobe_sigma[k, 2]
+    for v in range(S.vol_g.shape[0]):
+        if C[p, v] > 0 and not S.vol_is_grid[v]:
+            s0 += S.vol_lobe_sigma[v, k, 0]
+            s1 += S.vol_lobe_sigma[v, k, 1]
+            s2 += S.vol_lobe_sigma[v, k, 2]
+    return s0, s1, s2
+
+
+@stage_kernel
+def _phase_is_mixed(S, C, p):
+    if not S.mixed_phase:
+        return False
+    scattering = 0
+    for k in range(S.phase_g.shape[0]):
+        if _max3(_component_sigma(S, C, p, k)) > 0.0:
+            scattering += 1
+    return scattering > 1
+
+
+@stage_kernel
+def _phase_mixture_eval(S, C, p, cos_theta):
+    """(sum_k sigma_s,k HG(g_k) per channel, mixture pdf with weights mean sigma_s,k); Cycles
+    kernel/integrator/volume_shader.h _volume_shader_phase_eval_mis."""
+    f0 = f1 = f2 = 0.0
+    num = den = 0.0
+    for k in range(S.phase_g.shape[0]):
+        sk = _component_sigma(S, C, p, k)
+        ph = hg_eval1(S.phase_g[k], cos_theta)
+        f0 += sk[0] * ph
+        f1 += sk[1] * ph
+        f2 += sk[2] * ph
+        w = (sk[0] + sk[1] + sk[2]) / 3.0
+        num += w * ph
+        den += w
+    return (f0, f1, f2), (num / den if den > 0.0 else 0.0)
+
+
+@stage_kernel
+def _phase_mixture_sample(S, C, p, d, u1, u2):
+    """Pick component k with probability ~ mean sigma_s,k (u1 rescaled and reused, as Cycles'
+    volume_shader_phase_pick) and sample HG(g_k); returns (wo, f (RGB), mixture pdf)."""
+    total = 0.0
+    for k in range(S.phase_g.shape[0]):
+        sk = _component_sigma(S, C, p, k)
+        total += (sk[0] + sk[1] + sk[2]) / 3.0
+    chosen = S.phase_g.shape[0] - 1
+    lower = 0.0
+    p_k = 0.0
+    for k in range(S.phase_g.shape[0]):
+        sk = _component_sigma(S, C, p, k)
+        p_k = (sk[0] + sk[1] + sk[2]) / 3.0 / total if total > 0.0 else 0.0
+        if u1 < lower + p_k or k == S.phase_g.shape[0] - 1:
+            chosen = k
+            break
+        lower += p_k
+    u_within = min(max((u1 - lower) / p_k if p_k > 0.0 else 0.0, 0.0), 1.0 - 1e-12)
+    x, y, z, _ = hg_sample1(d[0], d[1], d[2], S.phase_g[chosen], u_within, u2)
+    wo = (x, y, z)
+    f, pdf = _phase_mixture_eval(S, C, p, _dot3(d, wo))
+    return wo, f, pdf
+
+
+@stage_kernel
+def _push_shadow(SF, SI, SC, C, p, n_shadow, origin, wi, dist, contrib, sigma_t, margin, pid):
+    q = n_shadow
+    _set3(SF, q, S_O, origin)
+    _set3(SF, q, S_D, wi)
+    SF[q, S_REMAINING] = max(dist - margin, 0.0) if np.isfinite(dist) else np.inf
+    _set3(SF, q, S_CONTRIB, contrib)
+    _set3(SF, q, S_ST, sigma_t)
+    SF[q, S_LEAD] = 0.0
+    SI[q] = pid
+    for v in range(C.shape[1]):
+        SC[q, v] = C[p, v]
+    return q + 1
+
+
+@stage_kernel
+def _russian_roulette(S, F, I, K, p, iteration):
+    """True if path p survives; survivors are scaled by 1/q."""
+    if I[p, BOUNCE] <= S.rr_min_bounces:
+        return True
+    q = min(np.sqrt(max(abs(F[p, BETA]), max(abs(F[p, BETA + 1]), abs(F[p, BETA + 2])))), 1.0)
+    if _u(K, p, iteration, D_RR) < q:
+        s = 1.0 / max(q, 1e-30)
+        F[p, BETA] *= s
+        F[p, BETA + 1] *= s
+        F[p, BETA + 2] *= s
+        return True
+    return False
+
+
+# ---------------------------------------------------------------------------------------------
+# The path stage: everything between a closest-hit query and the next one
+# ---------------------------------------------------------------------------------------------
+@stage_kernel
+def shade(S, T, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, alive, SF, SI, SC, stats):
+    """Advance paths 0..n-1 by one segment: medium (emission, NEE, free flight), lamps crossed,
+    escape, volume scattering or surface interaction. Shadow rays go to the queue; returns its
+    length. stats: [vertices] accumulated."""
+    eps = S.epsilon
+    margin = 2.0 * eps  # shadow rays stop short of the light's own surface
+    n_shadow = 0
+    n_lights = T.count
+    n_lamps = T.hittable_rows.shape[0]
+    for p in range(n):
+        pid = I[p, PID]
+        prim = hit_prim[p]
+        geo = prim >= 0 and hit_t[p] <= F[p, TMAX]
+        t_seg = hit_t[p] if geo else F[p, TMAX]
+        o = _get3(F, p, O)
+        d = _get3(F, p, D)
+        ss = _get3(F, p, SS)
+        st = _get3(F, p, ST)
+        em = _get3(F, p, EM)
+        g = F[p, G]
+        tat = I[p, TAT] != 0
+        in_med = S.any_medium and (_max3(st) > 0.0 or _max3(em) > 0.0)
+        beta = _get3(F, p, BETA)
+        if in_med and F[p, LEAD] > 0.0:
+            # the origin sits `lead` past the boundary it just crossed: attenuate that gap exactly
+            beta = _mul3(beta, transmittance3(st, F[p, LEAD]))
+        F[p, LEAD] = 0.0
+        beta_in = beta  # throughput at the segment start (lamp hits look back at it)
+        scatter = False
+        t_scatter = np.inf
+        p_surv = (0.0, 0.0, 0.0)  # channel pdf of the free flight, for lamps crossed
+        sampled = False
+
+        # ---- medium segment ----------------------------------------------------------------
+        if in_med:
+            if _max3(em) > 0.0:
+                _add_radiance(L, pid, _mul3(beta, emission_integral1(em, st, t_seg)))
+            if not tat and _max3(ss) > 0.0:
+                if n_lights > 0:
+                    n_shadow = _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
+                                           SF, SI, SC, n_shadow, margin)
+                # free flight (untruncated; reaching the surface is the survival event)
+                pc = channel_probabilities1(beta, ss, st, 1.0, 1.0, 1.0)
+                p_surv = pc
+                sampled = True
+                ts = sample_distance1(st, pc, _u(K, p, iteration, D_CHANNEL), _u(K, p, iteration, D_DISTANCE))
+                if ts < t_seg:
+                    scatter = True
+                    t_scatter = ts
+                    pdf, _, tr = distance_pdf1(st, pc, ts)
+                    beta = _scale3(_mul3(_mul3(beta, ss), tr), 1.0 / max(pdf, 1e-300))
+                else:
+                    _, surv, tr = distance_pdf1(st, pc, t_seg)
+                    beta = _scale3(_mul3(beta, tr), 1.0 / surv) if surv > 0.0 else (0.0, 0.0, 0.0)
+            else:
+                beta = _mul3(beta, transmittance3(st, t_seg))
+        _set3(F, p, BETA, beta)
+
+        # ---- lamps crossed before the end of the segment (they do not block) --------------
+        if n_lamps > 0:
+            reach = min(t_scatter, t_seg)
+            prev = _get3(F, p, PREV)
+            travelled = F[p, TRAVELLED]
+            for k in range(n_lamps):
+                if I[p, BOUNCE] == 0 and not T.camera_visible[T.hittable_rows[k]]:
+                    continue
+                t_l, r0, r1, r2, lpdf = lamp_crossing(T, k, prev[0], prev[1], prev[2], d[0], d[1], d[2],
+                                                      travelled, travelled + reach)
+                if not np.isfinite(t_l):
+                    continue
+                w = mis_weight(F[p, PREV_PDF], lpdf)
+                weight = beta_in
+                if in_med:
+                    local_t = t_l - travelled
+                    if sampled:
+                        _, surv, tr = distance_pdf1(st, p_surv, local_t)
+                        weight = _scale3(_mul3(weight, tr), 1.0 / max(surv, 1e-300))
+                    else:
+                        weight = _mul3(weight, transmittance3(st, local_t))
+                _add_radiance(L, pid, _scale3(_mul3(weight, (r0, r1, r2)), w))
+
+        # ---- escaped rays ------------------------------------------------------------------
+        if not geo and not scatter:
+            r = escaped_emission_mis(T, d[0], d[1], d[2], F[p, PREV_PDF], I[p, BOUNCE] == 0)
+            _add_radiance(L, pid, _mul3(beta, r))
+            alive[p] = False
+            continue
+
+        if scatter:
+            # ---- volume scattering vertex ---------------------------------------------------
+            stats[0] += 1
+            x = (o[0] + d[0] * t_scatter, o[1] + d[1] * t_scatter, o[2] + d[2] * t_scatter)
+            u1 = _u(K, p, iteration, D_PHASE_U)
+            u2 = _u(K, p, iteration, D_PHASE_V)
+            if S.mixed_phase and _phase_is_mixed(S, C, p):
+                # beta *= f / (sigma_s pdf): the collision weight already holds sigma_s
+                wo, f, pdf = _phase_mixture_sample(S, C, p, d, u1, u2)
+                for c in range(3):
+                    ok = ss[c] > 0.0 and pdf > 0.0
+                    F[p, BETA + c] *= f[c] / (ss[c] * pdf) if ok else 0.0
+            else:
+                wx, wy, wz, pdf = hg_sample1(d[0], d[1], d[2], g, u1, u2)  # phase / pdf == 1
+                wo = (wx, wy, wz)
+            _set3(F, p, O, x)
+            _set3(F, p, D, wo)
+            _set3(F, p, PREV, x)
+            F[p, PREV_PDF] = pdf
+            F[p, TRAVELLED] = 0.0
+            F[p, TMAX] = np.inf
+            I[p, VOLUME] += 1
+            I[p, BOUNCE] += 1
+            if I[p, VOLUME] > S.volume_bounces or I[p, BOUNCE] > S.max_bounces:
+                I[p, TAT] = 1
+            alive[p] = _russian_roulette(S, F, I, K, p, iteration)
+        else:
+            alive[p], n_shadow = _surface(S, T, F, I, K, C, p, iteration, prim, hit_t[p], hit_u[p], hit_v[p],
+                                          L, SF, SI, SC, n_shadow, margin, stats)
+        if alive[p]:
+            alive[p] = F[p, BETA] > 0.0 or F[p, BETA + 1] > 0.0 or F[p, BETA + 2] > 0.0
+    return n_shadow
+
+
+@inline_stage_kernel
+def _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, SF, SI, SC, n_shadow, margin):
+    """One next-event vertex on the segment [0, t_end] (see module docstring)."""
+    mode = S.volume_sampling
+    row = select_light(T, _u(K, p, iteration, D_MED_SELECT))
+    u_t = _u(K, p, iteration, D_MED_T)
+    finite = np.isfinite(t_end)
+    pc = channel_probabilities1(beta, ss, st, 1.0 if (st[0] > 0.0 or finite) else 0.0,
+                                1.0 if (st[1] > 0.0 or finite) else 0.0, 1.0 if (st[2] > 0.0 or finite) else 0.0)
+    can_distance = pc[0] + pc[1] + pc[2] > 0.0
+    can_equi = light_has_position(T, row) and mode != 1
+    if mode == 2 or not can_distance:
+        prob_eq = 1.0 if can_equi else 0.0
+    else:
+        prob_eq = 0.5 if can_equi else 0.0
+    if not (can_equi or can_distance):
+        return n_shadow
+    setup = equiangular_setup1(o, d, t_end, light_position(T, row))
+    if _u(K, p, iteration, D_MED_TECH) < prob_eq:
+        t = equiangular_sample1(setup, u_t)
+    else:
+        t = sample_distance_truncated1(st, pc, _u(K, p, iteration, D_MED_CHANNEL), u_t, t_end)
+    if not np.isfinite(t):
+        t = 0.0
+    tr = transmittance3(st, t)
+    pdf_t = prob_eq * equiangular_pdf1(setup, t)
+    if can_distance:
+        pdf_t += (1.0 - prob_eq) * truncated_distance_pdf1(st, pc, tr, t_end)
+    if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
+        return n_shadow
+    x = (o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t)
+    wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, x[0], x[1], x[2],
+                                                           _u(K, p, iteration, D_MED_LU),
+                                                           _u(K, p, iteration, D_MED_LV))
+    cos_theta = d[0] * wx + d[1] * wy + d[2] * wz
+    if S.mixed_phase and _phase_is_mixed(S, C, p):
+        scattering, phase = _phase_mixture_eval(S, C, p, cos_theta)
+    else:
+        phase = hg_eval1(g, cos_theta)  # the phase pdf (MIS) and sigma_s x phase per channel
+        scattering = _scale3(ss, phase)
+    w = power_heuristic(light_pdf, phase) if light_pdf > 0.0 else 1.0
+    contrib = _scale3(_mul3(_mul3(_mul3(beta, tr), scattering), (v0, v1, v2)), w / pdf_t)
+    if _max3(contrib) > 0.0:
+        n_shadow = _push_shadow(SF, SI, SC, C, p, n_shadow, x, (wx, wy, wz), dist, contrib, st, margin,
+                                I[p, PID])
+    return n_shadow
+
+
+@inline_stage_kernel
+def _surface(S, T, F, I, K, C, p, iteration, prim, t, hu, hv, L, SF, SI, SC, n_shadow, margin, stats):
+    """Shade a surface hit; returns (continues, shadow queue length)."""
+    eps = S.epsilon
+    d = _get3(F, p, D)
+    ng = (S.normals[prim, 0], S.normals[prim, 1], S.normals[prim, 2])
+    front = _dot3(d, ng) < 0.0
+    if S.tri_null[prim]:
+        # null boundary: cross it, update the volume stack, keep the direction
+        cross_boundary(S, C, p, prim, front)
+        if S.any_medium:
+            stack_coefficients(S, C, p, F)
+        step = t + eps
+        for c in range(3):
+            F[p, O + c] += d[c] * step
+        F[p, LEAD] = eps
+        F[p, TRAVELLED] += step
+        F[p, TMAX] -= step
+        I[p, BOUNDS] += 1
+        return I[p, BOUNDS] <= MAX_VOLUME_BOUNDS, n_shadow
+    stats[0] += 1
+    pid = I[p, PID]
+    beta = _get3(F, p, BETA)
+    pb = (F[p, O] + d[0] * t, F[p, O + 1] + d[1] * t, F[p, O + 2] + d[2] * t)
+    # emission (two-sided by default), MIS against the light-sampling pdf
+    if S.tri_emissive[prim]:
+        prev = _get3(F, p, PREV)
+        r0, r1, r2, lpdf = triangle_emission(T, prim, prev[0], prev[1], prev[2], d[0], d[1], d[2],
+                                             F[p, TRAVELLED] + t, front)
+        _add_radiance(L, pid, _scale3(_mul3(beta, (r0, r1, r2)), mis_weight(F[p, PREV_PDF], lpdf)))
+    # terminate-after-transparent paths end here; black surfaces absorb everything
+    albedo = (S.tri_albedo[prim, 0], S.tri_albedo[prim, 1], S.tri_albedo[prim, 2])
+    if I[p, TAT] != 0 or not _max3(albedo) > 0.0:
+        return False, n_shadow
+    sign = 1.0 if front else -1.0
+    n_face = _scale3(ng, sign)
+    origin = (pb[0] + n_face[0] * eps, pb[1] + n_face[1] * eps, pb[2] + n_face[2] * eps)
+    ns = n_face
+    if S.has_smooth:
+        w0 = 1.0 - hu - hv
+        sx = S.corner_normals[prim, 0, 0] * w0 + S.corner_normals[prim, 1, 0] * hu + S.corner_normals[prim, 2, 0] * hv
+        sy = S.corner_normals[prim, 0, 1] * w0 + S.corner_normals[prim, 1, 1] * hu + S.corner_normals[prim, 2, 1] * hv
+        sz = S.corner_normals[prim, 0, 2] * w0 + S.corner_normals[prim, 1, 2] * hu + S.corner_normals[prim, 2, 2] * hv
+        length = max(np.sqrt(sx * sx + sy * sy + sz * sz), 1e-30)
+        flip = -1.0 if (sx * n_face[0] + sy * n_face[1] + sz * n_face[2]) < 0.0 else 1.0
+        ns = (sx / length * flip, sy / length * flip, sz / length * flip)
+    if T.count > 0:
+        row = select_light(T, _u(K, p, iteration, D_SURF_SELECT))
+        wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, origin[0], origin[1], origin[2],
+                                                               _u(K, p, iteration, D_SURF_LU),
+                                                               _u(K, p, iteration, D_SURF_LV))
+        wi = (wx, wy, wz)
+        cos = max(_dot3(ns, wi), 0.0)
+        bsdf_pdf = cos / np.pi  # Lambert: f |cos| = albedo cos / pi, cosine-sampling pdf
+        if _dot3(wi, n_face) > 0.0:
+            w = power_heuristic(light_pdf, bsdf_pdf) if light_pdf > 0.0 else 1.0
+            contrib = _scale3(_mul3(_mul3(beta, albedo), (v0, v1, v2)), bsdf_pdf * w)
+            if _max3(contrib) > 0.0:
+                n_shadow = _push_shadow(SF, SI, SC, C, p, n_shadow, origin, wi, dist, contrib,
+                                        _get3(F, p, ST), margin, pid)
+    # continue with a cosine-sampled direction (weight f cos / pdf = albedo)
+    wx, wy, wz, cos = cosine_hemisphere1(ns[0], ns[1], ns[2], _u(K, p, iteration, D_BSDF_U),
+                                         _u(K, p, iteration, D_BSDF_V))
+    ok = (wx * n_face[0] + wy * n_face[1] + wz * n_face[2]) > 0.0  # smooth normals may dip below
+    _set3(F, p, O, origin)
+    _set3(F, p, D, (wx, wy, wz))
+    _set3(F, p, BETA, _mul3(beta, albedo) if ok else (0.0, 0.0, 0.0))
+    _set3(F, p, PREV, origin)
+    F[p, PREV_PDF] = cos / np.pi
+    F[p, TRAVELLED] = 0.0
+    F[p, TMAX] = np.inf
+    I[p, BOUNCE] += 1
+    I[p, DIFFUSE] += 1
+    if I[p, DIFFUSE] > S.diffuse_bounces or I[p, BOUNCE] > S.max_bounces:
+        I[p, TAT] = 1
+    return _russian_roulette(S, F, I, K, p, iteration), n_shadow
+
+
+# ---------------------------------------------------------------------------------------------
+# Shadow rays
+# ---------------------------------------------------------------------------------------------
+@stage_kernel
+def shadow_unoccluded(SF, SI, m, blocked, margin, L):
+    """Scenes without null boundaries: one occlusion query per shadow ray; transmittance of the
+    single medium segment (its coefficients were stored with the ray)."""
+    for q in range(m):
+        if blocked[q]:
+            continue
+        tr = transmittance3(_get3(SF, q, S_ST), SF[q, S_REMAINING] + margin)
+        _add_radiance(L, SI[q], _mul3(_get3(SF, q, S_CONTRIB), tr))
+
+
+@stage_kernel
+def shadow_step(S, SF, SI, SC, m, hit_t, hit_prim, margin, L):
+    """One closest-hit step of shadow rays through null boundaries: attenuate the segment, stop
+    at opaque geometry (T = 0) or at the light (add contrib x T), cross null boundaries (the
+    volume stack and the segment's sigma_t change). Returns how many rays continue (in place at
+    the front of the queue)."""
+    eps = S.epsilon
+    out = 0
+    for q in range(m):
+        hit = hit_prim[q] >= 0
+        seg = hit_t[q] if hit else SF[q, S_REMAINING]
+        length = seg + SF[q, S_LEAD] + (0.0 if hit else margin)
+        tr = transmittance3(_get3(SF, q, S_ST), length)
+        for c in range(3):
+            SF[q, S_CONTRIB + c] *= tr[c]
+        if hit and not S.tri_null[hit_prim[q]]:
+            continue  # blocked
+        if not hit:
+            _add_radiance(L, SI[q], _get3(SF, q, S_CONTRIB))
+            continue
+        prim = hit_prim[q]
+        front = (SF[q, S_D] * S.normals[prim, 0] + SF[q, S_D + 1] * S.normals[prim, 1]
+                 + SF[q, S_D + 2] * S.normals[prim, 2]) < 0.0
+        cross_boundary(S, SC, q, prim, front)
+        for c in range(3):
+            SF[q, S_O + c] += SF[q, S_D + c] * (seg + eps)
+        SF[q, S_REMAINING] -= seg + eps
+        SF[q, S_LEAD] = eps
+        _set3(SF, q, S_ST, stack_sigma_t(S, SC, q))
+        if not SF[q, S_REMAINING] > 0.0:
+            _add_radiance(L, SI[q], _get3(SF, q, S_CONTRIB))
+            continue
+        # keep: move to the front of the queue
+        if out != q:
+            _move_row(SF, q, out)
+            SI[out] = SI[q]
+            _move_row(SC, q, out)
+        out += 1
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Queue plumbing
+# ---------------------------------------------------------------------------------------------
+@stage_kernel
+def ray_buffers(F, n, o32, d32, t32):
+    """Contiguous float32 rays for Embree from the packed state."""
+    for p in range(n):
+        for c in range(3):
+            o32[p, c] = F[p, O + c]
+            d32[p, c] = F[p, D + c]
+        t32[p] = min(F[p, TMAX], 1e30)
+
+
+@stage_kernel
+def shadow_buffers(SF, m, o32, d32, t32):
+    for q in range(m):
+        for c in range(3):
+            o32[q, c] = SF[q, S_O + c]
+            d32[q, c] = SF[q, S_D + c]
+        t32[q] = min(SF[q, S_REMAINING], 1e30)
+
+
+@stage_kernel
+def _move_row(A, src, dst):
+    for j in range(A.shape[1]):
+        A[dst, j] = A[src, j]
+
+
+@stage_kernel
+def compact(F, I, K, C, n, alive):
+    """Move the live paths to the front (stable); returns how many live."""
+    out = 0
+    for p in range(n):
+        if not alive[p]:
+            continue
+        if out != p:
+            _move_row(F, p, out)
+            _move_row(I, p, out)
+            K[out] = K[p]
+            _move_row(C, p, out)
+        out += 1
+    return out
