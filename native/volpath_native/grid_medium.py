@@ -46,7 +46,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .grid_kernels import (FLAG_MAJORANT, FLAG_MINORANT, FLAG_OVERFLOW, STREAM_DIMENSIONS, GridTables,
-                           box_interval_many, coefficients_many, dda_cells1, density_many, track_many)
+                           box_interval_many, coefficients_many, dda_cells1, density_many, grid_free_flight,
+                           grid_scattering, grid_transmittance, track_many)
 from .scene import Mesh, SceneError, rgb
 
 __all__ = ["GridMedium", "FreeFlight", "MajorantTooLowError", "principled_volume_coefficients",
@@ -429,8 +430,10 @@ class GridMedium:
     def check_flags(self, tables: GridTables) -> None:
         """Report what the kernels recorded in tables.flags: bound violations raise
         MajorantTooLowError in debug mode (unchecked otherwise, as the bounds are conservative by
-        construction); rays that ran out of random dimensions warn (their weight is 0: biased)."""
-        flags, violation = tables.flags, tables.violation
+        construction); rays that ran out of random dimensions warn (their weight is 0: biased).
+        The record is cleared as it is read."""
+        flags, violation = tables.flags.copy(), tables.violation.copy()
+        tables.flags[:] = 0
         if flags[FLAG_OVERFLOW]:
             warnings.warn(f"grid medium '{self.name}': {int(flags[FLAG_OVERFLOW])} rays needed more than "
                           f"{STREAM_DIMENSIONS} random numbers and were stopped (weight 0)", RuntimeWarning)
@@ -534,6 +537,26 @@ class GridMedium:
             _, sigma_t, _ = self.coefficients(origins + dirs * t[:, None])
             tau += sigma_t * ((hi - lo) / steps)[:, None]
         return tau
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) every grid kernel on a tiny medium, so the first render
+    does not pay for it mid-frame."""
+    medium = GridMedium("warm-up", np.ones((2, 2, 2), np.float32), np.eye(4), 1.0, 1.0, emission=0.1,
+                        emission_grid=np.zeros((2, 2, 2, 3), np.float32))
+    rng = np.random.default_rng(0)
+    o, d = np.full((1, 3), 0.5), np.array([[0.0, 0.0, 1.0]])
+    medium.sample_free_flight(o, d, 1.0, rng)
+    medium.transmittance(o, d, 1.0, rng)
+    medium.transmittance(o, d, 1.0, rng, residual=False)
+    medium.density_at(o)
+    medium.optical_depth(o, d, 1.0, steps=1)
+    medium.dda_cells(o[0], d[0])
+    G = medium.tables
+    key = np.uint64(1)
+    grid_free_flight(G, 0.5, 0.5, 0.5, 0.0, 0.0, 1.0, 1.0, key, 0, 1.0, 1.0, 1.0)
+    grid_transmittance(G, 0.5, 0.5, 0.5, 0.0, 0.0, 1.0, 1.0, key, 0)
+    grid_scattering(G, 0.5, 0.5, 0.5)
 
 
 def _points(a) -> np.ndarray:

@@ -9,7 +9,7 @@ import pytest
 
 from volpath_native.grid_kernels import (FLAG_OVERFLOW, STREAM_DIMENSIONS, grid_free_flight, grid_scattering,
                                          grid_transmittance)
-from volpath_native.grid_medium import GridMedium
+from volpath_native.grid_medium import GridMedium, warm_up
 
 Z_LIMIT = 4.0
 Z_1E4 = 3.719  # one-sided standard normal quantile at 1e-4
@@ -141,3 +141,17 @@ def test_a_ray_beyond_its_random_number_budget_stops_with_weight_zero():
     # A short segment fits in the budget: weight 1 (nothing there).
     r = grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 0.01, np.uint64(5), 0, 1.0, 1.0, 1.0)
     assert r[2:5] == (1.0, 1.0, 1.0)
+
+
+def test_tables_of_every_medium_have_one_numba_type():
+    """Media with and without colour/emission grids give tables of the same numba type, so a kernel
+    compiles once and the integrator can hold several grids in one homogeneous tuple."""
+    plain = GridMedium("plain", np.ones((3, 4, 5), np.float32), np.eye(4), 1.0, 0.5)
+    colored, _ = smooth_random_medium(seed=26, n=6)
+    glowing = GridMedium("glow", np.ones((2, 2, 2), np.float32), np.eye(4), 1.0, 0.0, emission=1.0,
+                         emission_grid=np.ones((2, 2, 2, 3), np.float32))
+    types = {numba.typeof(m.tables) for m in (plain, colored, glowing)}
+    assert len(types) == 1
+    for array in (a for a in plain.tables if isinstance(a, np.ndarray)):
+        assert array.flags.c_contiguous
+    warm_up()  # every kernel compiles (or loads) on a tiny medium
