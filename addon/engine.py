@@ -26,6 +26,7 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
     bl_use_shading_nodes_custom = False  # Blender's own shader nodes are our materials
 
     def render(self, depsgraph):
+        global _kernels_ready
         compat.isolate_embree()
         try:
             import volpath_native as vp
@@ -57,7 +58,9 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         # bottom-up.
         result = self.begin_result(0, 0, width, height, layer=layer_name)
         total = scene.settings.samples
-        self.update_stats("", f"VolPath | exported in {export_seconds:.2f} s | rendering")
+        # Without volpath_native.warm_up() the first render compiles its kernels as it goes.
+        stage = "rendering" if _kernels_ready else "Compiling render kernels (first render only)"
+        self.update_stats("", f"VolPath | exported in {export_seconds:.2f} s | {stage}")
 
         def progress(done, samples_total, stats):
             self.update_progress(done / max(samples_total, 1))
@@ -81,6 +84,8 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             self.end_result(result)
             self._fail(f"VolPath failed while rendering: {type(error).__name__}: {error}")
             return
+        if not output.cancelled:  # every kernel has run by now, with or without warm_up()
+            _kernels_ready = True
         for message in output.warnings:
             if message not in warnings:
                 self.report({"WARNING"}, message)
