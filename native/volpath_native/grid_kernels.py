@@ -22,7 +22,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .jit import kernel, uniform1
+from .jit import inline_stage_kernel, stage_kernel, uniform1
 
 GridTables = namedtuple("GridTables", [
     "density",            # (nx,ny,nz) float32, padded (zero border), negative values clamped
@@ -59,7 +59,7 @@ _REL_TOL, _ABS_TOL = 1e-4, 1e-7
 # ---------------------------------------------------------------------------------------------
 # Lookups
 # ---------------------------------------------------------------------------------------------
-@kernel
+@inline_stage_kernel
 def _to_index(G, x, y, z):
     m = G.world_to_index
     return (m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3],
@@ -67,7 +67,7 @@ def _to_index(G, x, y, z):
             m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3])
 
 
-@kernel
+@inline_stage_kernel
 def _corner(G, px, py, pz):
     """Base voxel and trilinear fractions of an index point; inside False outside the padded box
     (the background, 0), as Cycles' linear interpolation (kernel/util/image_3d.h)."""
@@ -79,7 +79,7 @@ def _corner(G, px, py, pz):
     return inside, i, j, k, px - i, py - j, pz - k
 
 
-@kernel
+@stage_kernel
 def _trilinear(grid, i, j, k, fx, fy, fz):
     gx, gy, gz = 1.0 - fx, 1.0 - fy, 1.0 - fz
     return (gx * (gy * (gz * grid[i, j, k] + fz * grid[i, j, k + 1])
@@ -88,7 +88,7 @@ def _trilinear(grid, i, j, k, fx, fy, fz):
                     + fy * (gz * grid[i + 1, j + 1, k] + fz * grid[i + 1, j + 1, k + 1])))
 
 
-@kernel
+@stage_kernel
 def _trilinear3(grid, i, j, k, fx, fy, fz):
     """Trilinear interpolation of an (nx,ny,nz,3) grid: three floats."""
     gx, gy, gz = 1.0 - fx, 1.0 - fy, 1.0 - fz
@@ -105,20 +105,22 @@ def _trilinear3(grid, i, j, k, fx, fy, fz):
     return r, g, b
 
 
-@kernel
+@stage_kernel
 def grid_density(G, x, y, z):
     """Interpolated density at a world point."""
-    inside, i, j, k, fx, fy, fz = _corner(G, *_to_index(G, x, y, z))
+    px, py, pz = _to_index(G, x, y, z)
+    inside, i, j, k, fx, fy, fz = _corner(G, px, py, pz)
     if not inside:
         return 0.0
     return _trilinear(G.density, i, j, k, fx, fy, fz)
 
 
-@kernel
+@inline_stage_kernel
 def grid_coefficients(G, x, y, z):
     """(sigma_s rgb, sigma_t rgb, emission rgb) at a world point: 9 floats. Colour factors and
     emission are interpolated per voxel (the expectation of Cycles' stochastic lookup)."""
-    inside, i, j, k, fx, fy, fz = _corner(G, *_to_index(G, x, y, z))
+    px, py, pz = _to_index(G, x, y, z)
+    inside, i, j, k, fx, fy, fz = _corner(G, px, py, pz)
     if not inside:
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     rho = _trilinear(G.density, i, j, k, fx, fy, fz)
@@ -140,7 +142,7 @@ def grid_coefficients(G, x, y, z):
     return sr, sg, sb, tr, tg, tb, er, eg, eb
 
 
-@kernel
+@stage_kernel
 def grid_scattering(G, x, y, z):
     """sigma_s (rgb) at a world point, for next-event phase weights (the HG g is G.g)."""
     c = grid_coefficients(G, x, y, z)
@@ -150,7 +152,7 @@ def grid_scattering(G, x, y, z):
 # ---------------------------------------------------------------------------------------------
 # DDA over majorant cells (pbrt-v4 DDAMajorantIterator, src/pbrt/media.h)
 # ---------------------------------------------------------------------------------------------
-@kernel
+@stage_kernel
 def _slab(o, d, hi):
     """Parametric [near, far] of one axis slab [0, hi] for a ray coordinate o + d t."""
     if d == 0.0:
@@ -161,7 +163,7 @@ def _slab(o, d, hi):
     return min(t0, t1), max(t0, t1)
 
 
-@kernel
+@stage_kernel
 def _axis_start(o, d, t_enter, cells):
     """Cell, next boundary crossing, crossing spacing and step along one axis at t_enter."""
     p = o + d * t_enter
@@ -173,7 +175,7 @@ def _axis_start(o, d, t_enter, cells):
     return cell, t_enter + (cell - p) / d, -1.0 / d, -1
 
 
-@kernel
+@stage_kernel
 def _dda_start(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
     """DDA state of a ray on [t_min, t_max] in majorant-cell coordinates: (active, t, t_exit,
     cell (3), next crossing (3), crossing spacing (3), step (3)). Ray parameters stay world
@@ -197,7 +199,7 @@ def _dda_start(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
     return True, t_enter, t_exit, cx, cy, cz, nx, ny, nz, ex, ey, ez, sx, sy, sz
 
 
-@kernel
+@stage_kernel
 def grid_box_interval(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
     """(t0, t1) of the part of [t_min, t_max] inside the medium's box; t0 == t1 if none."""
     s = _dda_start(G, ox, oy, oz, dx, dy, dz, t_min, t_max)
@@ -206,7 +208,7 @@ def grid_box_interval(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
     return s[1], s[2]
 
 
-@kernel
+@stage_kernel
 def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, bb):
     """Walk the majorant cells of one ray and sample tentative collisions, exponential with the
     cell's rate and restarted at each boundary (memorylessness keeps it exact; pbrt-v4 SampleT_maj).
@@ -327,14 +329,14 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
     return t_event, scattered, wr, wg, wb, er, eg, eb
 
 
-@kernel
+@stage_kernel
 def _record(G, flag, value, bound, x, y, z):
     G.flags[flag] += 1
     v = G.violation[flag]
     v[0], v[1], v[2], v[3], v[4] = value, bound, x, y, z
 
 
-@kernel
+@stage_kernel
 def grid_free_flight(G, ox, oy, oz, dx, dy, dz, t_max, key, stream, br, bg, bb):
     """Delta tracking with null collisions on [0, t_max] along a unit ray; (br, bg, bb) is the path
     throughput for the channel pdf. Returns (t, scattered, wr, wg, wb, er, eg, eb): the event
@@ -345,7 +347,7 @@ def grid_free_flight(G, ox, oy, oz, dx, dy, dz, t_max, key, stream, br, bg, bb):
     return _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, 0, br, bg, bb)
 
 
-@kernel
+@stage_kernel
 def grid_transmittance(G, ox, oy, oz, dx, dy, dz, t_max, key, stream):
     """Unbiased transmittance estimate (rgb) over [0, t_max] along a unit ray: residual ratio
     tracking with the cell minorant as control (exact where the density is constant)."""
@@ -356,7 +358,7 @@ def grid_transmittance(G, ox, oy, oz, dx, dy, dz, t_max, key, stream):
 # ---------------------------------------------------------------------------------------------
 # Loops behind GridMedium's numpy-facing methods
 # ---------------------------------------------------------------------------------------------
-@kernel
+@stage_kernel
 def track_many(G, origins, dirs, t_min, t_max, keys, stream, mode, throughput, t_out, scattered, weight, emission):
     for n in range(len(origins)):
         o, d = origins[n], dirs[n]
@@ -367,7 +369,7 @@ def track_many(G, origins, dirs, t_min, t_max, keys, stream, mode, throughput, t
         emission[n, 0], emission[n, 1], emission[n, 2] = r[5], r[6], r[7]
 
 
-@kernel
+@stage_kernel
 def coefficients_many(G, points, sigma_s, sigma_t, emission):
     for n in range(len(points)):
         c = grid_coefficients(G, points[n, 0], points[n, 1], points[n, 2])
@@ -375,20 +377,20 @@ def coefficients_many(G, points, sigma_s, sigma_t, emission):
             sigma_s[n, ch], sigma_t[n, ch], emission[n, ch] = c[ch], c[3 + ch], c[6 + ch]
 
 
-@kernel
+@stage_kernel
 def density_many(G, points, out):
     for n in range(len(points)):
         out[n] = grid_density(G, points[n, 0], points[n, 1], points[n, 2])
 
 
-@kernel
+@stage_kernel
 def box_interval_many(G, origins, dirs, t_min, t_max, t0, t1):
     for n in range(len(origins)):
         o, d = origins[n], dirs[n]
         t0[n], t1[n] = grid_box_interval(G, o[0], o[1], o[2], d[0], d[1], d[2], t_min[n], t_max[n])
 
 
-@kernel
+@stage_kernel
 def dda_cells1(G, ox, oy, oz, dx, dy, dz, t_min, t_max, cells, spans):
     """The majorant cells one ray visits, in order, into cells (M,3) and spans (M,2) [t0, t1);
     returns their count. The same stepping as _track, for tests and debugging."""
