@@ -7,8 +7,6 @@ escaped rays; volume scattering or surface interaction), which queues shadow ray
 (Embree, in bulk, stepping through null boundaries) -> compaction. The per-path arithmetic of the
 stages is compiled (path_kernels.py, numba); this module owns the buffers and the Embree queries.
 The estimators and their references are listed in path_kernels.py.
-
-Scenes with grid (heterogeneous) media still run the numpy wavefront of integrator_grid.py.
 """
 from __future__ import annotations
 
@@ -18,6 +16,7 @@ from . import path_kernels as pk
 from .accel import Accelerator
 from .camera import CameraModel, crop_window
 from .film import PixelFilter
+from .grid_medium import GridMedium
 from .lights import LightSet
 from .media import MediaTable
 from .sampling import path_keys, uniform
@@ -54,6 +53,9 @@ def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable) -> pk.Scen
         world_lobe[:] = media._world_lobe_sigma
     is_grid = np.zeros(n_vol, bool)
     is_grid[:media.n_volumes] = media.volume_is_grid
+    vol_grid = np.full(n_vol, -1, np.int64)
+    for index, (v, _) in enumerate(media.grid_volumes):
+        vol_grid[v] = index
     return pk.SceneTables(
         tri_null=np.ascontiguousarray(mat_null[ids] if has_tris else np.zeros(n_tri, bool)),
         tri_emissive=np.ascontiguousarray(mat_emissive[ids] if has_tris else np.zeros(n_tri, bool)),
@@ -64,7 +66,7 @@ def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable) -> pk.Scen
         tri_volume=np.ascontiguousarray(media.tri_volume, dtype=np.int32),
         vol_sigma_s=per_volume(media.sigma_s, (n_vol, 3)), vol_sigma_a=per_volume(media.sigma_a, (n_vol, 3)),
         vol_emission=per_volume(media.emission, (n_vol, 3)), vol_g=per_volume(media.g, n_vol),
-        vol_is_grid=is_grid,
+        vol_is_grid=is_grid, vol_grid=vol_grid, has_grids=bool(media.has_grids),
         world_sigma_s=np.asarray(media.world_sigma_s, np.float64), world_sigma_a=np.asarray(media.world_sigma_a, np.float64),
         world_emission=np.asarray(media.world_emission, np.float64), world_g=float(media.world_g),
         phase_g=phase_g, vol_lobe_sigma=lobe_sigma, world_lobe_sigma=world_lobe,
@@ -87,6 +89,7 @@ class Integrator:
         self.filter = PixelFilter(scene.film)
         self.crop = crop_window(scene.film)
         self.tables = scene_tables(scene, self.accel, self.media)
+        self.grids = [grid for _, grid in self.media.grid_volumes]
         self.has_null = bool(self.tables.tri_null.any())
         self.warnings = self.lights.warnings + self.media.warnings
         self._camera_stack = None
@@ -132,11 +135,14 @@ class Integrator:
         o32, d32, t32 = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, np.float32)
         # up to two shadow rays per path and iteration (medium NEE + surface NEE)
         SF = np.empty((2 * n, pk.NSF))
-        SI = np.empty(2 * n, np.int64)
+        SI = np.empty((2 * n, pk.NSI), np.int64)
+        SK = np.empty(2 * n, np.uint64)
         SC = np.empty((2 * n, C.shape[1]), np.int8)
         so32, sd32, st32 = np.empty((2 * n, 3), np.float32), np.empty((2 * n, 3), np.float32), np.empty(2 * n, np.float32)
         counter = np.zeros(1, np.int64)
         margin = 2.0 * self.accel.epsilon
+        # grid tables with a violation record private to this batch (threads never share it)
+        grid_tables = tuple(grid._call_tables() for grid in self.grids) or (_no_grid_tables(),)
         iteration = 0
         while n:
             if cancel is not None and cancel():
@@ -144,15 +150,17 @@ class Integrator:
             pk.ray_buffers(F, n, o32, d32, t32)
             hits = self.accel.intersect_raw(o32[:n], d32[:n], t32[:n])
             stats["rays"] += n
-            m = pk.shade(self.tables, self.lights.tables, n, iteration, F, I, K, C, hits.t, hits.prim,
-                         hits.u, hits.v, L, alive, SF, SI, SC, counter)
-            self._trace_shadows(SF, SI, SC, m, so32, sd32, st32, margin, L, stats)
+            m = pk.shade(self.tables, self.lights.tables, grid_tables, n, iteration, F, I, K, C, hits.t,
+                         hits.prim, hits.u, hits.v, L, alive, SF, SI, SK, SC, counter)
+            self._trace_shadows(grid_tables, SF, SI, SK, SC, m, so32, sd32, st32, margin, L, stats, iteration)
             n = pk.compact(F, I, K, C, n, alive)
             iteration += 1
         stats["vertices"] = int(counter[0])
+        for grid, tables in zip(self.grids, grid_tables):
+            grid.check_flags(tables)
         return L, stats
 
-    def _trace_shadows(self, SF, SI, SC, m, so32, sd32, st32, margin, L, stats):
+    def _trace_shadows(self, grid_tables, SF, SI, SK, SC, m, so32, sd32, st32, margin, L, stats, iteration):
         """Transmittance of queued shadow rays, added to L where the light is reached."""
         if not m:
             return
@@ -162,19 +170,26 @@ class Integrator:
             stats["shadow_rays"] += m
             pk.shadow_unoccluded(SF, SI, m, blocked, margin, L)
             return
-        for _ in range(pk.MAX_VOLUME_BOUNDS):
+        for step in range(pk.MAX_VOLUME_BOUNDS):
             if not m:
                 return
             pk.shadow_buffers(SF, m, so32, sd32, st32)
             hits = self.accel.intersect_raw(so32[:m], sd32[:m], st32[:m])
             stats["shadow_rays"] += m
-            m = pk.shadow_step(self.tables, SF, SI, SC, m, hits.t, hits.prim, margin, L)
+            m = pk.shadow_step(self.tables, grid_tables, SF, SI, SK, SC, m, hits.t, hits.prim, margin, L,
+                               iteration, step)
         # rays still crossing boundaries after the limit count as blocked (Cycles VOLUME_BOUNDS_MAX)
 
 
-def create_integrator(scene: Scene):
-    """The compiled wavefront, or the numpy one while scenes with grid media need it."""
-    if any(not getattr(m, "is_homogeneous", True) for m in scene.media):
-        from .integrator_grid import Integrator as GridIntegrator
-        return GridIntegrator(scene)
-    return Integrator(scene)
+
+_NO_GRID_TABLES = None
+
+
+def _no_grid_tables():
+    """Placeholder grid tables for scenes without grids (the stage kernels index a homogeneous
+    tuple of them; a dummy keeps one compiled signature for every scene)."""
+    global _NO_GRID_TABLES
+    if _NO_GRID_TABLES is None:
+        _NO_GRID_TABLES = GridMedium("none", np.zeros((2, 2, 2), np.float32), np.eye(4), np.zeros(3),
+                                     np.zeros(3)).tables
+    return _NO_GRID_TABLES

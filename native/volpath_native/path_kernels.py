@@ -27,6 +27,8 @@ from collections import namedtuple
 
 import numpy as np
 
+from .bsdf import lambert_eval1, lambert_sample1
+from .grid_kernels import STREAM_DIMENSIONS, grid_free_flight, grid_scattering, grid_transmittance
 from .jit import inline_stage_kernel, stage_kernel, uniform1
 from .light_kernels import (escaped_emission_mis, lamp_crossing, light_has_position, light_position, sample_light,
                      select_light, triangle_emission)
@@ -35,7 +37,7 @@ from .media import (channel_probabilities1, distance_pdf1, emission_integral1, e
                     transmittance1, transmittance3, truncated_distance_pdf1)
 from .mis import mis_weight, power_heuristic
 from .phase import hg_eval1, hg_sample1
-from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, cosine_hemisphere1
+from .sampling import CAMERA_DIMS, DIMS_PER_EVENT
 
 # F columns
 O, D, BETA, PREV = 0, 3, 6, 9
@@ -45,9 +47,16 @@ NF = 26
 # I columns
 PID, BOUNCE, DIFFUSE, VOLUME, BOUNDS, TAT = range(6)
 NI = 6
-# shadow queue SF columns (SI holds the path id)
+# shadow queue SF columns; SI columns: path id, purpose (which NEE queued it); SK: path key
 S_O, S_D, S_REMAINING, S_CONTRIB, S_ST, S_LEAD = 0, 3, 6, 7, 10, 13
 NSF = 14
+SI_PID, SI_PURPOSE = 0, 1
+NSI = 2
+# Grid tracking draws from its own streams of dimensions (grid_kernels): one per iteration,
+# purpose, shadow step and grid, far above the per-iteration dimensions of the path.
+P_FREE_FLIGHT, P_NEE_SEGMENT, P_LAMP, P_SHADOW_MEDIUM, P_SHADOW_SURFACE = range(5)
+_STREAM_BASE = 1 << 40
+_MAX_STEPS, _MAX_GRIDS = 64, 16
 
 # Random dimensions within one iteration (see sampling.event_dimension).
 D_CHANNEL, D_DISTANCE, D_MED_SELECT, D_MED_TECH, D_MED_T, D_MED_CHANNEL, D_MED_LU, D_MED_LV, \
@@ -62,6 +71,7 @@ SceneTables = namedtuple("SceneTables", [
     "vol_sigma_s", "vol_sigma_a", "vol_emission", "vol_g", "vol_is_grid",
     "world_sigma_s", "world_sigma_a", "world_emission", "world_g",
     "phase_g", "vol_lobe_sigma", "world_lobe_sigma", "mixed_phase",
+    "vol_grid", "has_grids",
     "epsilon", "any_medium", "max_bounces", "diffuse_bounces", "volume_bounces", "rr_min_bounces",
     "volume_sampling"])
 
@@ -108,6 +118,36 @@ def _add_radiance(L, pid, v):
     L[pid, 0] += v[0]
     L[pid, 1] += v[1]
     L[pid, 2] += v[2]
+
+
+@stage_kernel
+def grid_stream(iteration, purpose, step, grid):
+    """First dimension of the stream of grid `grid` for this iteration/purpose/shadow step."""
+    index = ((iteration * 5 + purpose) * _MAX_STEPS + min(step, _MAX_STEPS - 1)) * _MAX_GRIDS + grid
+    return np.uint64(_STREAM_BASE) + np.uint64(index) * np.uint64(STREAM_DIMENSIONS)
+
+
+@stage_kernel
+def inside_grid(S, C, p):
+    if not S.has_grids:
+        return False
+    for v in range(S.vol_grid.shape[0]):
+        if C[p, v] > 0 and S.vol_grid[v] >= 0:
+            return True
+    return False
+
+
+@stage_kernel
+def grids_transmittance(S, GR, C, p, o, d, dist, key, stream_of):
+    """Product of ratio-tracking estimates (RGB) over the grid volumes path p's stack is inside;
+    stream_of(grid) -> first dimension (see grid_stream)."""
+    t0 = t1 = t2 = 1.0
+    for v in range(S.vol_grid.shape[0]):
+        gi = S.vol_grid[v]
+        if C[p, v] > 0 and gi >= 0:
+            r = grid_transmittance(GR[gi], o[0], o[1], o[2], d[0], d[1], d[2], dist, key, stream_of + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS))
+            t0, t1, t2 = t0 * r[0], t1 * r[1], t2 * r[2]
+    return t0, t1, t2
 
 
 # ---------------------------------------------------------------------------------------------
@@ -237,15 +277,17 @@ def _phase_mixture_sample(S, C, p, d, u1, u2):
 
 
 @stage_kernel
-def _push_shadow(SF, SI, SC, C, p, n_shadow, origin, wi, dist, contrib, sigma_t, margin, pid):
+def _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, origin, wi, dist, contrib, sigma_t, margin, pid, purpose):
     q = n_shadow
+    SK[q] = K[p]
+    SI[q, SI_PURPOSE] = purpose
     _set3(SF, q, S_O, origin)
     _set3(SF, q, S_D, wi)
     SF[q, S_REMAINING] = max(dist - margin, 0.0) if np.isfinite(dist) else np.inf
     _set3(SF, q, S_CONTRIB, contrib)
     _set3(SF, q, S_ST, sigma_t)
     SF[q, S_LEAD] = 0.0
-    SI[q] = pid
+    SI[q, SI_PID] = pid
     for v in range(C.shape[1]):
         SC[q, v] = C[p, v]
     return q + 1
@@ -270,7 +312,7 @@ def _russian_roulette(S, F, I, K, p, iteration):
 # The path stage: everything between a closest-hit query and the next one
 # ---------------------------------------------------------------------------------------------
 @stage_kernel
-def shade(S, T, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, alive, SF, SI, SC, stats):
+def shade(S, T, GR, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, alive, SF, SI, SK, SC, stats):
     """Advance paths 0..n-1 by one segment: medium (emission, NEE, free flight), lamps crossed,
     escape, volume scattering or surface interaction. Shadow rays go to the queue; returns its
     length. stats: [vertices] accumulated."""
@@ -291,7 +333,8 @@ def shade(S, T, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, aliv
         em = _get3(F, p, EM)
         g = F[p, G]
         tat = I[p, TAT] != 0
-        in_med = S.any_medium and (_max3(st) > 0.0 or _max3(em) > 0.0)
+        in_grid = S.has_grids and inside_grid(S, C, p)
+        in_med = in_grid or (S.any_medium and (_max3(st) > 0.0 or _max3(em) > 0.0))
         beta = _get3(F, p, BETA)
         if in_med and F[p, LEAD] > 0.0:
             # the origin sits `lead` past the boundary it just crossed: attenuate that gap exactly
@@ -302,15 +345,23 @@ def shade(S, T, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, aliv
         t_scatter = np.inf
         p_surv = (0.0, 0.0, 0.0)  # channel pdf of the free flight, for lamps crossed
         sampled = False
+        event_g = g  # HG parameter of the scattering event
+        grid_event = False
 
         # ---- medium segment ----------------------------------------------------------------
         if in_med:
             if _max3(em) > 0.0:
                 _add_radiance(L, pid, _mul3(beta, emission_integral1(em, st, t_seg)))
-            if not tat and _max3(ss) > 0.0:
+            if in_grid:
+                if not tat and n_lights > 0:
+                    n_shadow = _grid_nee(S, T, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
+                                         SF, SI, SK, SC, n_shadow, margin)
+                beta, scatter, t_scatter, event_g, grid_event = _grid_segment(
+                    S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat)
+            elif not tat and _max3(ss) > 0.0:
                 if n_lights > 0:
                     n_shadow = _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
-                                           SF, SI, SC, n_shadow, margin)
+                                           SF, SI, SK, SC, n_shadow, margin)
                 # free flight (untruncated; reaching the surface is the survival event)
                 pc = channel_probabilities1(beta, ss, st, 1.0, 1.0, 1.0)
                 p_surv = pc
@@ -330,7 +381,9 @@ def shade(S, T, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, aliv
 
         # ---- lamps crossed before the end of the segment (they do not block) --------------
         if n_lamps > 0:
-            reach = min(t_scatter, t_seg)
+            # grid paths weight lamps by an independent ratio-tracking estimate of the
+            # transmittance (unbiased whatever their own collision), so they reach every lamp
+            reach = t_seg if in_grid else min(t_scatter, t_seg)
             prev = _get3(F, p, PREV)
             travelled = F[p, TRAVELLED]
             for k in range(n_lamps):
@@ -349,6 +402,9 @@ def shade(S, T, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, aliv
                         weight = _scale3(_mul3(weight, tr), 1.0 / max(surv, 1e-300))
                     else:
                         weight = _mul3(weight, transmittance3(st, local_t))
+                    if in_grid:
+                        weight = _mul3(weight, grids_transmittance(S, GR, C, p, o, d, local_t, K[p],
+                                                                   grid_stream(iteration, P_LAMP, k, 0)))
                 _add_radiance(L, pid, _scale3(_mul3(weight, (r0, r1, r2)), w))
 
         # ---- escaped rays ------------------------------------------------------------------
@@ -364,7 +420,10 @@ def shade(S, T, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, aliv
             x = (o[0] + d[0] * t_scatter, o[1] + d[1] * t_scatter, o[2] + d[2] * t_scatter)
             u1 = _u(K, p, iteration, D_PHASE_U)
             u2 = _u(K, p, iteration, D_PHASE_V)
-            if S.mixed_phase and _phase_is_mixed(S, C, p):
+            if grid_event:
+                wx, wy, wz, pdf = hg_sample1(d[0], d[1], d[2], event_g, u1, u2)
+                wo = (wx, wy, wz)
+            elif S.mixed_phase and _phase_is_mixed(S, C, p):
                 # beta *= f / (sigma_s pdf): the collision weight already holds sigma_s
                 wo, f, pdf = _phase_mixture_sample(S, C, p, d, u1, u2)
                 for c in range(3):
@@ -373,6 +432,8 @@ def shade(S, T, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, aliv
             else:
                 wx, wy, wz, pdf = hg_sample1(d[0], d[1], d[2], g, u1, u2)  # phase / pdf == 1
                 wo = (wx, wy, wz)
+            if in_grid:  # MIS needs the pdf of the whole phase mixture at x (as grid NEE uses)
+                pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, _dot3(d, wo))[1]
             _set3(F, p, O, x)
             _set3(F, p, D, wo)
             _set3(F, p, PREV, x)
@@ -386,14 +447,14 @@ def shade(S, T, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, aliv
             alive[p] = _russian_roulette(S, F, I, K, p, iteration)
         else:
             alive[p], n_shadow = _surface(S, T, F, I, K, C, p, iteration, prim, hit_t[p], hit_u[p], hit_v[p],
-                                          L, SF, SI, SC, n_shadow, margin, stats)
+                                          L, SF, SI, SK, SC, n_shadow, margin, stats)
         if alive[p]:
             alive[p] = F[p, BETA] > 0.0 or F[p, BETA + 1] > 0.0 or F[p, BETA + 2] > 0.0
     return n_shadow
 
 
 @inline_stage_kernel
-def _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, SF, SI, SC, n_shadow, margin):
+def _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, SF, SI, SK, SC, n_shadow, margin):
     """One next-event vertex on the segment [0, t_end] (see module docstring)."""
     mode = S.volume_sampling
     row = select_light(T, _u(K, p, iteration, D_MED_SELECT))
@@ -435,13 +496,13 @@ def _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, SF
     w = power_heuristic(light_pdf, phase) if light_pdf > 0.0 else 1.0
     contrib = _scale3(_mul3(_mul3(_mul3(beta, tr), scattering), (v0, v1, v2)), w / pdf_t)
     if _max3(contrib) > 0.0:
-        n_shadow = _push_shadow(SF, SI, SC, C, p, n_shadow, x, (wx, wy, wz), dist, contrib, st, margin,
-                                I[p, PID])
+        n_shadow = _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, x, (wx, wy, wz), dist, contrib, st, margin,
+                                I[p, PID], P_SHADOW_MEDIUM)
     return n_shadow
 
 
 @inline_stage_kernel
-def _surface(S, T, F, I, K, C, p, iteration, prim, t, hu, hv, L, SF, SI, SC, n_shadow, margin, stats):
+def _surface(S, T, F, I, K, C, p, iteration, prim, t, hu, hv, L, SF, SI, SK, SC, n_shadow, margin, stats):
     """Shade a surface hit; returns (continues, shadow queue length)."""
     eps = S.epsilon
     d = _get3(F, p, D)
@@ -492,23 +553,21 @@ def _surface(S, T, F, I, K, C, p, iteration, prim, t, hu, hv, L, SF, SI, SC, n_s
                                                                _u(K, p, iteration, D_SURF_LU),
                                                                _u(K, p, iteration, D_SURF_LV))
         wi = (wx, wy, wz)
-        cos = max(_dot3(ns, wi), 0.0)
-        bsdf_pdf = cos / np.pi  # Lambert: f |cos| = albedo cos / pi, cosine-sampling pdf
+        f, bsdf_pdf = lambert_eval1(albedo, ns, wi)
         if _dot3(wi, n_face) > 0.0:
             w = power_heuristic(light_pdf, bsdf_pdf) if light_pdf > 0.0 else 1.0
-            contrib = _scale3(_mul3(_mul3(beta, albedo), (v0, v1, v2)), bsdf_pdf * w)
+            contrib = _scale3(_mul3(_mul3(beta, f), (v0, v1, v2)), w)
             if _max3(contrib) > 0.0:
-                n_shadow = _push_shadow(SF, SI, SC, C, p, n_shadow, origin, wi, dist, contrib,
-                                        _get3(F, p, ST), margin, pid)
+                n_shadow = _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, origin, wi, dist, contrib,
+                                        _get3(F, p, ST), margin, pid, P_SHADOW_SURFACE)
     # continue with a cosine-sampled direction (weight f cos / pdf = albedo)
-    wx, wy, wz, cos = cosine_hemisphere1(ns[0], ns[1], ns[2], _u(K, p, iteration, D_BSDF_U),
-                                         _u(K, p, iteration, D_BSDF_V))
-    ok = (wx * n_face[0] + wy * n_face[1] + wz * n_face[2]) > 0.0  # smooth normals may dip below
+    wi, pdf = lambert_sample1(ns, _u(K, p, iteration, D_BSDF_U), _u(K, p, iteration, D_BSDF_V))
+    ok = _dot3(wi, n_face) > 0.0  # smooth normals may dip below the geometric surface
     _set3(F, p, O, origin)
-    _set3(F, p, D, (wx, wy, wz))
+    _set3(F, p, D, wi)
     _set3(F, p, BETA, _mul3(beta, albedo) if ok else (0.0, 0.0, 0.0))
     _set3(F, p, PREV, origin)
-    F[p, PREV_PDF] = cos / np.pi
+    F[p, PREV_PDF] = pdf
     F[p, TRAVELLED] = 0.0
     F[p, TMAX] = np.inf
     I[p, BOUNCE] += 1
@@ -519,21 +578,149 @@ def _surface(S, T, F, I, K, C, p, iteration, prim, t, hu, hv, L, SF, SI, SC, n_s
 
 
 # ---------------------------------------------------------------------------------------------
+# Heterogeneous (grid) media: delta tracking and ratio tracking from grid_kernels. A homogeneous
+# medium overlapping a grid is sampled first and the grid tracked only up to its event (the
+# earlier of two independent collision processes is the first event of their sum).
+# ---------------------------------------------------------------------------------------------
+@inline_stage_kernel
+def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat):
+    """Free flight of path p inside grid volumes; returns (beta, scattered, t, event g, grid event)."""
+    key = K[p]
+    stream0 = grid_stream(iteration, P_FREE_FLIGHT, 0, 0)
+    if tat:  # attenuation only
+        tr = _mul3(transmittance3(st, t_seg), grids_transmittance(S, GR, C, p, o, d, t_seg, key, stream0))
+        return _mul3(beta, tr), False, np.inf, g, False
+    hom = _max3(ss) > 0.0
+    pc = (0.0, 0.0, 0.0)
+    ts = np.inf
+    if hom:
+        pc = channel_probabilities1(beta, ss, st, 1.0, 1.0, 1.0)
+        ts = sample_distance1(st, pc, _u(K, p, iteration, D_CHANNEL), _u(K, p, iteration, D_DISTANCE))
+    t_end = min(ts, t_seg)
+    w = (1.0, 1.0, 1.0)
+    grid_event = False
+    event_g = g
+    for v in range(S.vol_grid.shape[0]):
+        gi = S.vol_grid[v]
+        if C[p, v] <= 0 or gi < 0:
+            continue
+        G = GR[gi]
+        thr = _mul3(beta, w)
+        t, scattered, w0, w1, w2, e0, e1, e2 = grid_free_flight(
+            G, o[0], o[1], o[2], d[0], d[1], d[2], t_end, key,
+            stream0 + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS), thr[0], thr[1], thr[2])
+        _add_radiance(L, pid, _mul3(_mul3(beta_in, w), (e0, e1, e2)))
+        w = _mul3(w, (w0, w1, w2))
+        if scattered:
+            t_end = t
+            grid_event = True
+            event_g = G.g
+    hom_event = hom and not grid_event and ts < t_seg
+    event = grid_event or hom_event
+    t_eval = t_end if event else t_seg
+    factor = transmittance3(st, t_eval)  # absorbing-only homogeneous part
+    if hom:
+        pdf, surv, tr = distance_pdf1(st, pc, t_eval)
+        if hom_event:
+            factor = _scale3(_mul3(ss, tr), 1.0 / max(pdf, 1e-300))
+        elif surv > 0.0:
+            factor = _scale3(tr, 1.0 / surv)
+        else:
+            factor = (0.0, 0.0, 0.0)
+    return _mul3(_mul3(beta, w), factor), event, (t_eval if event else np.inf), event_g, grid_event
+
+
+@stage_kernel
+def _grid_phase_mixture(S, GR, C, p, x, ss_hom, g_hom, cos_theta):
+    """Sum of sigma_s HG over every medium scattering at x (homogeneous components and grids) and
+    the mixture's pdf (weights: mean sigma_s), as _phase_mixture_eval for grid paths."""
+    f0 = f1 = f2 = 0.0
+    num = den = 0.0
+    n_hom = S.phase_g.shape[0] if S.mixed_phase else 1
+    for k in range(n_hom):
+        if S.mixed_phase:
+            sk = _component_sigma(S, C, p, k)
+            gk = S.phase_g[k]
+        else:
+            sk = ss_hom
+            gk = g_hom
+        ph = hg_eval1(gk, cos_theta)
+        f0, f1, f2 = f0 + sk[0] * ph, f1 + sk[1] * ph, f2 + sk[2] * ph
+        w = (sk[0] + sk[1] + sk[2]) / 3.0
+        num += w * ph
+        den += w
+    for v in range(S.vol_grid.shape[0]):
+        gi = S.vol_grid[v]
+        if C[p, v] <= 0 or gi < 0:
+            continue
+        sk = grid_scattering(GR[gi], x[0], x[1], x[2])
+        ph = hg_eval1(GR[gi].g, cos_theta)
+        f0, f1, f2 = f0 + sk[0] * ph, f1 + sk[1] * ph, f2 + sk[2] * ph
+        w = (sk[0] + sk[1] + sk[2]) / 3.0
+        num += w * ph
+        den += w
+    return (f0, f1, f2), (num / den if den > 0.0 else 0.0)
+
+
+@inline_stage_kernel
+def _grid_nee(S, T, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, SF, SI, SK, SC, n_shadow, margin):
+    """Next-event vertex per segment for paths inside grid volumes: the distance is drawn by
+    equiangular sampling (positional lights) or uniformly on the bounded segment, one-sample MIS
+    of the two; sigma_s and transmittance come from the grids (ratio tracking)."""
+    mode = S.volume_sampling
+    row = select_light(T, _u(K, p, iteration, D_MED_SELECT))
+    finite = np.isfinite(t_end) and t_end > 0.0
+    can_equi = light_has_position(T, row) and (mode != 1 or not finite)
+    if mode == 2:
+        prob_eq = 1.0 if can_equi else 0.0
+    else:
+        prob_eq = (0.5 if finite else 1.0) if can_equi else 0.0
+    if not (can_equi or finite):
+        return n_shadow
+    setup = equiangular_setup1(o, d, t_end, light_position(T, row))
+    u_t = _u(K, p, iteration, D_MED_T)
+    te = t_end if finite else 0.0
+    if _u(K, p, iteration, D_MED_TECH) < prob_eq:
+        t = equiangular_sample1(setup, u_t)
+    else:
+        t = u_t * te
+    if not np.isfinite(t):
+        t = 0.0
+    pdf_t = prob_eq * equiangular_pdf1(setup, t) + ((1.0 - prob_eq) / te if finite else 0.0)
+    if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
+        return n_shadow
+    x = (o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t)
+    wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, x[0], x[1], x[2],
+                                                           _u(K, p, iteration, D_MED_LU),
+                                                           _u(K, p, iteration, D_MED_LV))
+    f, phase_pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, d[0] * wx + d[1] * wy + d[2] * wz)
+    w = power_heuristic(light_pdf, phase_pdf) if light_pdf > 0.0 else 1.0
+    contrib = _scale3(_mul3(_mul3(_mul3(beta, transmittance3(st, t)), f), (v0, v1, v2)), w / pdf_t)
+    if _max3(contrib) > 0.0:
+        contrib = _mul3(contrib, grids_transmittance(S, GR, C, p, o, d, t, K[p],
+                                                     grid_stream(iteration, P_NEE_SEGMENT, 0, 0)))
+        n_shadow = _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, x, (wx, wy, wz), dist, contrib, st, margin,
+                                I[p, PID], P_SHADOW_MEDIUM)
+    return n_shadow
+
+
+# ---------------------------------------------------------------------------------------------
 # Shadow rays
 # ---------------------------------------------------------------------------------------------
 @stage_kernel
 def shadow_unoccluded(SF, SI, m, blocked, margin, L):
+    # (no null boundaries means no volumes, hence no grids)
     """Scenes without null boundaries: one occlusion query per shadow ray; transmittance of the
     single medium segment (its coefficients were stored with the ray)."""
     for q in range(m):
         if blocked[q]:
             continue
         tr = transmittance3(_get3(SF, q, S_ST), SF[q, S_REMAINING] + margin)
-        _add_radiance(L, SI[q], _mul3(_get3(SF, q, S_CONTRIB), tr))
+        _add_radiance(L, SI[q, SI_PID], _mul3(_get3(SF, q, S_CONTRIB), tr))
 
 
 @stage_kernel
-def shadow_step(S, SF, SI, SC, m, hit_t, hit_prim, margin, L):
+def shadow_step(S, GR, SF, SI, SK, SC, m, hit_t, hit_prim, margin, L, iteration, step):
     """One closest-hit step of shadow rays through null boundaries: attenuate the segment, stop
     at opaque geometry (T = 0) or at the light (add contrib x T), cross null boundaries (the
     volume stack and the segment's sigma_t change). Returns how many rays continue (in place at
@@ -545,12 +732,15 @@ def shadow_step(S, SF, SI, SC, m, hit_t, hit_prim, margin, L):
         seg = hit_t[q] if hit else SF[q, S_REMAINING]
         length = seg + SF[q, S_LEAD] + (0.0 if hit else margin)
         tr = transmittance3(_get3(SF, q, S_ST), length)
+        if S.has_grids:
+            tr = _mul3(tr, grids_transmittance(S, GR, SC, q, _get3(SF, q, S_O), _get3(SF, q, S_D), seg, SK[q],
+                                               grid_stream(iteration, SI[q, SI_PURPOSE], step, 0)))
         for c in range(3):
             SF[q, S_CONTRIB + c] *= tr[c]
         if hit and not S.tri_null[hit_prim[q]]:
             continue  # blocked
         if not hit:
-            _add_radiance(L, SI[q], _get3(SF, q, S_CONTRIB))
+            _add_radiance(L, SI[q, SI_PID], _get3(SF, q, S_CONTRIB))
             continue
         prim = hit_prim[q]
         front = (SF[q, S_D] * S.normals[prim, 0] + SF[q, S_D + 1] * S.normals[prim, 1]
@@ -562,12 +752,13 @@ def shadow_step(S, SF, SI, SC, m, hit_t, hit_prim, margin, L):
         SF[q, S_LEAD] = eps
         _set3(SF, q, S_ST, stack_sigma_t(S, SC, q))
         if not SF[q, S_REMAINING] > 0.0:
-            _add_radiance(L, SI[q], _get3(SF, q, S_CONTRIB))
+            _add_radiance(L, SI[q, SI_PID], _get3(SF, q, S_CONTRIB))
             continue
         # keep: move to the front of the queue
         if out != q:
             _move_row(SF, q, out)
-            SI[out] = SI[q]
+            _move_row(SI, q, out)
+            SK[out] = SK[q]
             _move_row(SC, q, out)
         out += 1
     return out

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .integrator import Cancelled, create_integrator
+from .integrator import Cancelled, Integrator
 from .scene import Scene, SceneError
 
 
@@ -99,7 +99,7 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
     if st.parallelism not in ("threads", "processes"):
         raise SceneError(f"unknown parallelism '{st.parallelism}' (threads or processes)")
     start = time.perf_counter()
-    integrator = create_integrator(scene)
+    integrator = Integrator(scene)
     warnings += integrator.warnings
     x0, y0, cw, ch = integrator.crop
     n_pix = cw * ch
