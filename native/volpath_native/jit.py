@@ -7,18 +7,37 @@ passes with temporaries and gathers -- the numpy version spent ~5x Embree's time
 (native/README.md, Performance). pbrt-v4's CPU wavefront (src/pbrt/wavefront/) likewise runs each
 stage as a compiled ParallelFor over its queue.
 
-- cache=True: compiled machine code is kept next to the sources (or in NUMBA_CACHE_DIR), so only
-  the first render after an install pays for compilation. numba invalidates a cached function
-  only when its own file changes, not when a function it calls in another module does: after
-  editing a kernel module, `make clean-kernels` (developers only; installs start clean).
+- cache=True: compiled machine code is kept on disk, so only the first render after an install
+  or change pays for compilation. numba invalidates a cached function only when its own file
+  changes, not when a function it calls from another module does, so the cache lives in a folder
+  named after a hash of all this package's sources: any edit starts a fresh cache. The folder's
+  parent is NUMBA_CACHE_DIR if set (the Blender add-on points it at Blender's user folders), else
+  ~/.cache/volpath/numba.
 - nogil=True: kernels release the GIL, so render threads run them in parallel.
 - error_model="numpy": division by zero gives inf/nan like numpy instead of raising, and no
   per-division checks slow the loops; kernels guard their divisions explicitly.
 """
 from __future__ import annotations
 
+import hashlib
+import os
+from pathlib import Path
+
 import numba
 import numpy as np
+
+
+def _cache_dir() -> str:
+    sources = hashlib.sha1()
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        sources.update(path.name.encode())
+        sources.update(path.read_bytes())
+    base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "volpath", "numba")
+    return os.path.join(base, f"{numba.__version__}-{sources.hexdigest()[:16]}")
+
+
+# set before any kernel is decorated: numba reads it when a cached function is created
+numba.config.CACHE_DIR = _cache_dir()
 
 kernel = numba.njit(cache=True, nogil=True, error_model="numpy")
 # The per-path stage loops: no allocation inside (callers pass every buffer), hence no reference

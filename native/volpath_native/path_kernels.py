@@ -76,51 +76,51 @@ SceneTables = namedtuple("SceneTables", [
     "volume_sampling"])
 
 
-@stage_kernel
+@inline_stage_kernel
 def _u(K, p, iteration, offset):
     return uniform1(K[p], CAMERA_DIMS + iteration * DIMS_PER_EVENT + offset)
 
 
-@stage_kernel
+@inline_stage_kernel
 def _get3(A, p, col):
     return A[p, col], A[p, col + 1], A[p, col + 2]
 
 
-@stage_kernel
+@inline_stage_kernel
 def _set3(A, p, col, v):
     A[p, col] = v[0]
     A[p, col + 1] = v[1]
     A[p, col + 2] = v[2]
 
 
-@stage_kernel
+@inline_stage_kernel
 def _max3(v):
     return max(v[0], max(v[1], v[2]))
 
 
-@stage_kernel
+@inline_stage_kernel
 def _mul3(a, b):
     return a[0] * b[0], a[1] * b[1], a[2] * b[2]
 
 
-@stage_kernel
+@inline_stage_kernel
 def _scale3(a, s):
     return a[0] * s, a[1] * s, a[2] * s
 
 
-@stage_kernel
+@inline_stage_kernel
 def _dot3(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@stage_kernel
+@inline_stage_kernel
 def _add_radiance(L, pid, v):
     L[pid, 0] += v[0]
     L[pid, 1] += v[1]
     L[pid, 2] += v[2]
 
 
-@stage_kernel
+@inline_stage_kernel
 def grid_stream(iteration, purpose, step, grid):
     """First dimension of the stream of grid `grid` for this iteration/purpose/shadow step."""
     index = ((iteration * 5 + purpose) * _MAX_STEPS + min(step, _MAX_STEPS - 1)) * _MAX_GRIDS + grid
@@ -276,7 +276,7 @@ def _phase_mixture_sample(S, C, p, d, u1, u2):
     return wo, f, pdf
 
 
-@stage_kernel
+@inline_stage_kernel
 def _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, origin, wi, dist, contrib, sigma_t, margin, pid, purpose):
     q = n_shadow
     SK[q] = K[p]
@@ -786,7 +786,7 @@ def shadow_buffers(SF, m, o32, d32, t32):
         t32[q] = min(SF[q, S_REMAINING], 1e30)
 
 
-@stage_kernel
+@inline_stage_kernel
 def _move_row(A, src, dst):
     for j in range(A.shape[1]):
         A[dst, j] = A[src, j]
