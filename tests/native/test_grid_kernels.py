@@ -30,7 +30,8 @@ def rotated_transform(voxel_size=0.05, offset=(0.3, -0.2, 1.0)):
     return m
 
 
-@numba.njit
+# Loops shaped like the integrator's stage kernels (jit.stage_kernel: no NRT), calling the kernels per ray.
+@numba.njit(_nrt=False)
 def _transmittances(G, origins, dirs, t_max, keys, stream, out):
     for n in range(len(origins)):
         o, d = origins[n], dirs[n]
@@ -38,7 +39,7 @@ def _transmittances(G, origins, dirs, t_max, keys, stream, out):
                                                              keys[n], stream)
 
 
-@numba.njit
+@numba.njit(_nrt=False)
 def _free_flights(G, origins, dirs, t_max, keys, stream, t_out, scattered, weight):
     for n in range(len(origins)):
         o, d = origins[n], dirs[n]
