@@ -141,8 +141,10 @@ class Integrator:
         so32, sd32, st32 = np.empty((2 * n, 3), np.float32), np.empty((2 * n, 3), np.float32), np.empty(2 * n, np.float32)
         counter = np.zeros(1, np.int64)
         margin = 2.0 * self.accel.epsilon
-        # grid tables with a violation record private to this batch (threads never share it)
-        grid_tables = tuple(grid._call_tables() for grid in self.grids) or (_no_grid_tables(),)
+        # grid tables with a violation record private to this batch (threads never share it),
+        # padded so that scenes with up to GRID_SLOTS grids share one compiled signature
+        grid_tables = tuple(grid._call_tables() for grid in self.grids)
+        grid_tables += (_no_grid_tables(),) * max(GRID_SLOTS - len(grid_tables), 0)
         iteration = 0
         while n:
             if cancel is not None and cancel():
@@ -183,13 +185,37 @@ class Integrator:
 
 
 _NO_GRID_TABLES = None
+GRID_SLOTS = 4  # the stage kernels are compiled for a tuple of this many grids (more: a recompile)
 
 
 def _no_grid_tables():
-    """Placeholder grid tables for scenes without grids (the stage kernels index a homogeneous
-    tuple of them; a dummy keeps one compiled signature for every scene)."""
+    """Placeholder grid tables that pad the grid tuple (never indexed: no volume maps to them)."""
     global _NO_GRID_TABLES
     if _NO_GRID_TABLES is None:
         _NO_GRID_TABLES = GridMedium("none", np.zeros((2, 2, 2), np.float32), np.eye(4), np.zeros(3),
                                      np.zeros(3)).tables
     return _NO_GRID_TABLES
+
+
+def warm_up() -> float:
+    """Compile every stage kernel (or load them from the on-disk cache) by rendering a tiny scene
+    with a medium inside a null boundary; returns the seconds it took. Renders call this
+    implicitly; the add-on calls it first so that it can tell the user what the wait is."""
+    import time
+    from .scene import Camera, Film, Material, Medium, Mesh, PointLight, RenderSettings
+    start = time.perf_counter()
+    corners = np.array([[x, y, z] for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1.0, 1.0)])
+    box = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6],
+                    [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    floor = Mesh("floor", np.array([[-3, -3, -1.5], [3, -3, -1.5], [3, 3, -1.5], [-3, 3, -1.5]], float),
+                 np.array([[0, 1, 2], [0, 2, 3]]), np.zeros(2, int))
+    fog = Mesh("fog", corners, box, np.ones(12, int))
+    camera = np.eye(4)
+    camera[:3, 3] = [0.0, 0.0, 6.0]
+    scene = Scene(camera=Camera(camera, fov=0.8), film=Film(4, 4), meshes=[floor, fog],
+                  materials=[Material("floor"), Material("fog", surface="null", medium=0)],
+                  media=[Medium("fog", sigma_s=0.5, sigma_a=0.1)],
+                  lights=[PointLight("lamp", [0.0, 0.0, 2.5], power=100.0)],
+                  settings=RenderSettings(samples=1, threads=1))
+    Integrator(scene).render_paths(np.arange(16) % 16, np.zeros(16, np.int64))
+    return time.perf_counter() - start

@@ -76,13 +76,11 @@ def raw_embree_rays_per_second(scene: Scene, batch: int, threads: int, repeats: 
     """Closest-hit and occlusion throughput of embreex alone on the same triangles and batch size
     (rays from random points in the room in random directions, like the renderer's)."""
     accel = Accelerator(scene.meshes)
-    rng = np.random.default_rng(0)
-    o = (rng.random((batch, 3)) * 5.4 + 0.05).astype(np.float32)
-    d = rng.normal(size=(batch, 3))
-    d = (d / np.linalg.norm(d, axis=1)[:, None]).astype(np.float32)
-    tmax = np.full(batch, 3.0)
+    o, d, tmax = _random_rays(batch)
+    far = np.full(batch, 1e30, np.float32)
     out = {}
-    for name, fn in (("closest", lambda: accel.intersect(o, d)), ("occluded", lambda: accel.occluded(o, d, tmax))):
+    for name, fn in (("closest", lambda: accel.intersect_raw(o, d, far)),
+                     ("occluded", lambda: accel.occluded_raw(o, d, tmax))):
         fn()
 
         def work():
@@ -96,6 +94,16 @@ def raw_embree_rays_per_second(scene: Scene, batch: int, threads: int, repeats: 
             t.join()
         out[name] = threads * repeats * batch / (time.perf_counter() - start)
     return out
+
+
+def _random_rays(batch: int):
+    """Float32 rays from random points in the room in random directions: the layout the renderer
+    hands to Embree (no conversions), so the baseline is Embree's own cost."""
+    rng = np.random.default_rng(0)
+    o = (rng.random((batch, 3)) * 5.4 + 0.05).astype(np.float32)
+    d = rng.normal(size=(batch, 3))
+    d = (d / np.linalg.norm(d, axis=1)[:, None]).astype(np.float32)
+    return o, d, np.full(batch, 3.0, np.float32)
 
 
 def _spin_rate(work, seconds=1.0) -> float:
@@ -129,13 +137,11 @@ def gil_probe(scene: Scene, batch: int) -> dict:
     from volpath_native.integrator import Integrator
     integrator = Integrator(scene)
     accel = integrator.accel
-    rng = np.random.default_rng(1)
-    o = rng.random((batch, 3)) * 5.4 + 0.05
-    d = rng.normal(size=(batch, 3))
-    d /= np.linalg.norm(d, axis=1)[:, None]
+    o, d, _ = _random_rays(batch)
+    far = np.full(batch, 1e30, np.float32)
     n = min(batch, 16384)
     alone = _spin_rate(None)
-    with_embree = _spin_rate(lambda: accel.intersect(o, d))
+    with_embree = _spin_rate(lambda: accel.intersect_raw(o, d, far))
     with_render = _spin_rate(lambda: integrator.render_paths(np.arange(n), np.zeros(n, np.int64)))
     return dict(alone=alone, embree=with_embree / alone, render=with_render / alone)
 
@@ -154,13 +160,11 @@ def cpu_time_efficiency(scene: Scene, batch: int, repeats: int = 3) -> dict:
         _, stats = integrator.render_paths(np.arange(n), np.full(n, r, np.int64))
         best = min(best, time.thread_time() - start)
     accel = integrator.accel
-    rng = np.random.default_rng(0)
-    o = rng.random((batch, 3)) * 5.4 + 0.05
-    d = rng.normal(size=(batch, 3))
-    d /= np.linalg.norm(d, axis=1)[:, None]
-    tmax = np.full(batch, 3.0)
+    o, d, tmax = _random_rays(batch)
+    far = np.full(batch, 1e30, np.float32)
     raw = {}
-    for name, fn in (("closest", lambda: accel.intersect(o, d)), ("occluded", lambda: accel.occluded(o, d, tmax))):
+    for name, fn in (("closest", lambda: accel.intersect_raw(o, d, far)),
+                     ("occluded", lambda: accel.occluded_raw(o, d, tmax))):
         fn()
         start = time.thread_time()
         for _ in range(8):
@@ -174,6 +178,10 @@ def cpu_time_efficiency(scene: Scene, batch: int, repeats: int = 3) -> dict:
 
 def run(spp: int, batch: int, profile: bool) -> None:
     print(f"Cornell box + homogeneous fog + point light, 256x256, {spp} spp, batch {batch}")
+    start = time.perf_counter()
+    render(cornell_fog_scene(resolution=8, spp=1))  # compiles the kernels, or loads them from the cache
+    print(f"  kernel warm-up (compile on the first run after a change, else cache load): "
+          f"{time.perf_counter() - start:.1f} s")
     results = {}
     with open("/proc/loadavg") as f:
         print(f"  load average before the run: {f.read().split()[0]} on {__import__('os').cpu_count()} cores "
