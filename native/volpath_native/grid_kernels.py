@@ -11,6 +11,10 @@ Random numbers: tracking a ray draws uniform1(key, stream + j) for j = 0, 1, 2, 
 reserves STREAM_DIMENSIONS of them per stream. A ray that would need more stops with weight 0 and
 counts an overflow in G.flags (never wraps into another stream).
 
+All functions are jit.stage_kernel (no NRT: nothing here allocates), the lookups inlined into the
+tracker; path_kernels calls grid_free_flight / grid_transmittance / grid_scattering per path. numba
+does not invalidate path_kernels' cache when this file changes: clear the kernel cache after editing (jit.py).
+
 Kernels cannot raise: a sample whose sigma_t exceeds its cell's bound increments a counter in
 G.flags and leaves the sample in G.violation; GridMedium turns them into MajorantTooLowError in
 debug mode. Counters are updated without locks (threads may lose increments): they flag, they do

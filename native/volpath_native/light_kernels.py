@@ -13,7 +13,7 @@ import numpy as np
 
 from .jit import stage_kernel
 from .mis import mis_weight
-from .sampling import local_to_world1
+from .sampling import concentric_disk1, local_to_world1, uniform_cone1, uniform_sphere1
 
 POINT, SPHERE, DISK, AREA_RECT, AREA_ELLIPSE, SUN, TRIANGLE, WORLD = range(8)
 
@@ -47,39 +47,8 @@ _FOUR_PI = 4.0 * np.pi
 
 
 # ---------------------------------------------------------------------------------------------
-# Scalar warps and ray tests
+# Ray tests and small helpers
 # ---------------------------------------------------------------------------------------------
-@stage_kernel
-def _concentric_disk1(u1, u2):
-    """Shirley-Chiu concentric map of the unit square to the unit disk (sampling.concentric_disk)."""
-    a = 2.0 * u1 - 1.0
-    b = 2.0 * u2 - 1.0
-    if a == 0.0 and b == 0.0:
-        return 0.0, 0.0
-    if abs(a) > abs(b):
-        r, phi = a, (np.pi / 4.0) * (b / a)
-    else:
-        r, phi = b, np.pi / 2.0 - (np.pi / 4.0) * (a / b)
-    return r * np.cos(phi), r * np.sin(phi)
-
-
-@stage_kernel
-def _uniform_sphere1(u1, u2):
-    z = 1.0 - 2.0 * u1
-    r = np.sqrt(max(1.0 - z * z, 0.0))
-    phi = 2.0 * np.pi * u2
-    return r * np.cos(phi), r * np.sin(phi), z
-
-
-@stage_kernel
-def _uniform_cone1(ax, ay, az, cos_max, u1, u2):
-    """Uniform direction in the cone of half-angle acos(cos_max) around a unit axis."""
-    cos_t = 1.0 - u1 * (1.0 - cos_max)
-    sin_t = np.sqrt(max(1.0 - cos_t * cos_t, 0.0))
-    phi = 2.0 * np.pi * u2
-    return local_to_world1(ax, ay, az, sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t)
-
-
 @stage_kernel
 def _ray_sphere1(ox, oy, oz, dx, dy, dz, cx, cy, cz, radius):
     """Nearest intersection distance > 1e-9 of a unit ray with a sphere (inf if none)."""
@@ -175,7 +144,7 @@ def _sample_disk(T, row, px, py, pz, u1, u2):
     area (Cycles kernel/light/point.h, !is_sphere); spot mask per sampled point (spot.h)."""
     cx, cy, cz = T.position[row, 0], T.position[row, 1], T.position[row, 2]
     nx, ny, nz, _ = _unit(px - cx, py - cy, pz - cz)  # disk normal points at the shading point
-    x, y = _concentric_disk1(u1, u2)
+    x, y = concentric_disk1(u1, u2)
     radius = T.radius[row]
     ox, oy, oz = local_to_world1(nx, ny, nz, x * radius, y * radius, 0.0)
     wx, wy, wz, dist = _unit(cx + ox - px, cy + oy - py, cz + oz - pz)
@@ -195,11 +164,11 @@ def _sample_sphere(T, row, px, py, pz, u1, u2):
     if d > r:
         sin2 = min((r / max(d, 1e-30)) ** 2, 1.0)
         cos_max = np.sqrt(1.0 - sin2)
-        wx, wy, wz = _uniform_cone1(ax, ay, az, cos_max, u1, u2)
+        wx, wy, wz = uniform_cone1(ax, ay, az, cos_max, u1, u2)
         pdf = 1.0 / (2.0 * np.pi * max(1.0 - cos_max, 1e-12))
         mask = _spot_mask1(T, row, -wx, -wy, -wz)
     else:
-        wx, wy, wz = _uniform_sphere1(u1, u2)
+        wx, wy, wz = uniform_sphere1(u1, u2)
         pdf = 1.0 / _FOUR_PI
         mask = 1.0
     t = _ray_sphere1(px, py, pz, wx, wy, wz, cx, cy, cz, r)
@@ -224,7 +193,7 @@ def _sample_surface_point(T, row, px, py, pz, yx, yy, yz, one_sided):
 def _sample_area(T, row, px, py, pz, u1, u2, ellipse):
     """Rectangle / ellipse area light, uniform by area, one-sided (Cycles kernel/light/area.h)."""
     if ellipse:
-        x, y = _concentric_disk1(u1, u2)
+        x, y = concentric_disk1(u1, u2)
         x, y = 0.5 * x, 0.5 * y
     else:
         x, y = u1 - 0.5, u2 - 0.5
@@ -254,7 +223,7 @@ def _sample_sun(T, row, u1, u2):
     ax, ay, az = T.normal[row, 0], T.normal[row, 1], T.normal[row, 2]
     cos_h = T.cos_half[row]
     if cos_h < 1.0:
-        wx, wy, wz = _uniform_cone1(ax, ay, az, cos_h, u1, u2)
+        wx, wy, wz = uniform_cone1(ax, ay, az, cos_h, u1, u2)
         pdf = 1.0 / (2.0 * np.pi * max(1.0 - cos_h, 1e-300))
         s = 1.0 / pdf
     else:
@@ -268,7 +237,7 @@ def _sample_sun(T, row, u1, u2):
 def _sample_world(T, row, u1, u2):
     """Constant background, uniform sphere (Cycles kernel/light/background.h without an
     importance map)."""
-    wx, wy, wz = _uniform_sphere1(u1, u2)
+    wx, wy, wz = uniform_sphere1(u1, u2)
     return (wx, wy, wz, _INF, T.strength[row, 0] * _FOUR_PI, T.strength[row, 1] * _FOUR_PI,
             T.strength[row, 2] * _FOUR_PI, 1.0 / _FOUR_PI)
 

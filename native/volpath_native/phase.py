@@ -1,80 +1,31 @@
 """Henyey-Greenstein phase function, parameterised around the ray's travel direction:
 cos_theta = dot(ray direction, scattered direction), so g > 0 scatters forward (Cycles
-kernel/closure/volume_util.h; pbrt-v4 uses the opposite sign convention for wo)."""
+kernel/closure/volume_util.h; pbrt-v4 uses the opposite sign convention for wo).
+
+hg_eval1 / hg_sample1 are what the compiled stages call; hg_eval / hg_sample loop over them for
+numpy callers (tests, quadratures). Mixtures of overlapping media of different g are evaluated and
+sampled by path_kernels (_phase_mixture_eval, _phase_mixture_sample) on the scene tables."""
 from __future__ import annotations
 
 import numpy as np
 
 from .jit import kernel
-from .sampling import local_to_world, local_to_world1
+from .sampling import local_to_world1
 
 INV_4PI = 1.0 / (4.0 * np.pi)
 
 
-def hg_eval(g: np.ndarray, cos_theta: np.ndarray) -> np.ndarray:
-    """Phase value (= pdf of hg_sample), per steradian."""
-    denom = 1.0 + g * g - 2.0 * g * cos_theta
-    return INV_4PI * (1.0 - g * g) / (denom * np.sqrt(np.maximum(denom, 1e-30)))
-
-
-def hg_sample(directions: np.ndarray, g: np.ndarray, u1: np.ndarray, u2: np.ndarray):
-    """Sample scattered directions around the travel directions; returns (wo, pdf)."""
-    g = np.broadcast_to(np.asarray(g, dtype=np.float64), u1.shape)
-    isotropic = np.abs(g) < 1e-3
-    safe_g = np.where(isotropic, 1.0, g)
-    sq = (1.0 - g * g) / (1.0 - g + 2.0 * g * u1)
-    cos_t = np.where(isotropic, 1.0 - 2.0 * u1, (1.0 + g * g - sq * sq) / (2.0 * safe_g))
-    cos_t = np.clip(cos_t, -1.0, 1.0)
-    sin_t = np.sqrt(np.maximum(1.0 - cos_t * cos_t, 0.0))
-    phi = 2.0 * np.pi * u2
-    wo = local_to_world(directions, sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t)
-    return wo, hg_eval(g, cos_t)
-
-
-# Mixtures: where media with different g overlap, the phase function is
-# sum_k sigma_s,k HG(g_k) / sigma_s (per channel). Cycles evaluates every volume closure weighted
-# by its sample weight (kernel/integrator/volume_shader.h _volume_shader_phase_eval_mis) and picks
-# one closure by sample weight to sample a direction (volume_shader_phase_pick, which rescales
-# the random number so it can be reused); closures with equal g are merged first
-# (volume_shader_merge_closures).
-
-def hg_mixture_pdf(probabilities: np.ndarray, g: np.ndarray, cos_theta: np.ndarray) -> np.ndarray:
-    """sum_k p_k HG(g_k, cos) for component probabilities (N, K) summing to 1 and g (K,)."""
-    return np.einsum("nk,nk->n", probabilities, hg_eval(g[None, :], cos_theta[:, None]))
-
-
-def hg_mixture_sample(directions: np.ndarray, probabilities: np.ndarray, g: np.ndarray,
-                      u1: np.ndarray, u2: np.ndarray):
-    """Pick component k with probability p_k (u1 decides, then is rescaled into the chosen
-    interval and reused, as Cycles' volume_shader_phase_pick) and sample HG(g_k).
-    Returns (wo, mixture pdf of wo, chosen component)."""
-    cdf = np.cumsum(probabilities, axis=1)
-    cdf[:, -1] = np.maximum(cdf[:, -1], 1.0)  # rounding must never leave u1 past the last bin
-    k = np.minimum((u1[:, None] >= cdf).sum(axis=1), probabilities.shape[1] - 1)
-    rows = np.arange(len(k))
-    lower = np.where(k > 0, cdf[rows, np.maximum(k - 1, 0)], 0.0)
-    p_k = probabilities[rows, k]
-    u_within = np.clip((u1 - lower) / np.where(p_k > 0, p_k, 1.0), 0.0, 1.0 - 1e-12)
-    wo, _ = hg_sample(directions, g[k], u_within, u2)
-    return wo, hg_mixture_pdf(probabilities, g, _cosine(directions, wo)), k
-
-
-def _cosine(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
-
-
-# ---------------------------------------------------------------------------------------------
-# Scalar forms for the compiled kernels
-# ---------------------------------------------------------------------------------------------
 @kernel
 def hg_eval1(g, cos_theta):
+    """Phase value (= pdf of hg_sample1), per steradian."""
     denom = 1.0 + g * g - 2.0 * g * cos_theta
     return INV_4PI * (1.0 - g * g) / (denom * np.sqrt(max(denom, 1e-30)))
 
 
 @kernel
 def hg_sample1(d0, d1, d2, g, u1, u2):
-    """One HG direction around the travel direction d; returns (x, y, z, pdf)."""
+    """One HG direction around the travel direction d (cos_theta by inverting its CDF);
+    returns (x, y, z, pdf)."""
     if abs(g) < 1e-3:
         cos_t = 1.0 - 2.0 * u1
     else:
@@ -85,3 +36,34 @@ def hg_sample1(d0, d1, d2, g, u1, u2):
     phi = 2.0 * np.pi * u2
     x, y, z = local_to_world1(d0, d1, d2, sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t)
     return x, y, z, hg_eval1(g, cos_t)
+
+
+def hg_eval(g, cos_theta) -> np.ndarray:
+    """hg_eval1 elementwise over broadcast g and cos_theta (any shapes)."""
+    shape = np.broadcast_shapes(np.shape(g), np.shape(cos_theta))
+    out = np.empty(shape)
+    _hg_eval_many(np.array(np.broadcast_to(g, shape), np.float64).reshape(-1),
+                  np.array(np.broadcast_to(cos_theta, shape), np.float64).reshape(-1), out.reshape(-1))
+    return out
+
+
+def hg_sample(directions: np.ndarray, g, u1: np.ndarray, u2: np.ndarray):
+    """hg_sample1 per row of unit travel directions (N, 3); g scalar or (N,). Returns (wo, pdf)."""
+    n = len(u1)
+    wo, pdf = np.empty((n, 3)), np.empty(n)
+    _hg_sample_many(np.ascontiguousarray(directions, np.float64),
+                    np.array(np.broadcast_to(g, (n,)), np.float64),
+                    np.ascontiguousarray(u1, np.float64), np.ascontiguousarray(u2, np.float64), wo, pdf)
+    return wo, pdf
+
+
+@kernel
+def _hg_eval_many(g, cos_theta, out):
+    for i in range(out.shape[0]):
+        out[i] = hg_eval1(g[i], cos_theta[i])
+
+
+@kernel
+def _hg_sample_many(d, g, u1, u2, wo, pdf):
+    for i in range(u1.shape[0]):
+        wo[i, 0], wo[i, 1], wo[i, 2], pdf[i] = hg_sample1(d[i, 0], d[i, 1], d[i, 2], g[i], u1[i], u2[i])

@@ -148,6 +148,9 @@ def test_installed_in_blender_renders_headless(tmp_path):
     out = _run([BLENDER, "-b", scene_file, "-E", "VOLPATH", "-o", tmp_path / "out_", "-F", "OPEN_EXR", "-f", "1"], env)
     frame = tmp_path / "out_0001.exr"
     assert frame.exists(), out[-3000:]
+    # numba's cache goes to the add-on's per-user folder (datafiles/volpath/numba for the legacy
+    # add-on, extensions/.user/<repo>/volpath/numba for an extension), not next to its sources.
+    assert list(home.rglob("volpath/numba/**/*.nbi")), "no compiled kernels cached under " + str(home)
     image = read_exr(frame)
     assert image.shape == (32, 32, 4)
     assert np.all(np.isfinite(image)) and image[..., :3].mean() > 1e-3

@@ -1,7 +1,8 @@
 """The scalar light kernels (light_kernels) that the compiled integrator calls per path: equal to
-LightSet's array API row by row, and sampling consistent with evaluation (the pdf a ray finds
-when it hits an emitter is the pdf with which light sampling picks that direction, which MIS
-needs)."""
+LightSet's array API row by row, sampling consistent with evaluation (the pdf a ray finds when it
+hits an emitter is the pdf with which light sampling picks that direction, which MIS needs), and
+the warps they sample with (sampling.concentric_disk1, uniform_cone1, uniform_sphere1) uniform
+where they claim to be (chi-square)."""
 import numpy as np
 import pytest
 
@@ -14,6 +15,9 @@ from volpath_native.light_kernels import (AREA_ELLIPSE, AREA_RECT, DISK, POINT, 
                                           light_has_position, light_position, sample_light, select_light,
                                           triangle_emission)
 from volpath_native.lights import LightSet
+from volpath_native.sampling import concentric_disk1, uniform_cone1, uniform_sphere1
+
+from native_helpers import chi2_critical
 
 POWER = np.array([100.0, 200.0, 50.0])
 
@@ -213,3 +217,52 @@ def test_sampled_directions_evaluate_to_the_same_pdf_and_radiance(lights):
     np.testing.assert_allclose(out[no_spot, 1:4], ls.value[no_spot] * ls.pdf[no_spot, None], rtol=1e-9)
     for k in (DISK, SPHERE, AREA_RECT, AREA_ELLIPSE, SUN, TRIANGLE, WORLD):
         assert found[kind == k].sum() > 100, k
+
+
+# ---- warps ------------------------------------------------------------------------------------
+@kernel
+def _warp_samples(axis, cos_max, u1, u2, disk, cone, sphere):
+    for i in range(u1.shape[0]):
+        disk[i, 0], disk[i, 1] = concentric_disk1(u1[i], u2[i])
+        cone[i, 0], cone[i, 1], cone[i, 2] = uniform_cone1(axis[0], axis[1], axis[2], cos_max, u1[i], u2[i])
+        sphere[i, 0], sphere[i, 1], sphere[i, 2] = uniform_sphere1(u1[i], u2[i])
+
+
+def _chi2_unit_square(a, b, bins=10):
+    """Chi-square of points (a, b) against the uniform law on [0, 1]^2, bins x bins cells."""
+    counts, _, _ = np.histogram2d(a, b, bins=bins, range=[[0, 1], [0, 1]])
+    expected = len(a) / counts.size
+    return ((counts - expected) ** 2 / expected).sum(), counts.size - 1
+
+
+def test_warps_are_uniform_on_disk_cone_and_sphere():
+    """Uniform by area on the unit disk: r^2 and the azimuth are independent and uniform; uniform
+    by solid angle in a cone / on the sphere: cos(theta) and the azimuth are."""
+    rng = np.random.default_rng(5)
+    n = 100_000
+    axis = np.array([0.3, -0.5, 0.81]) / np.linalg.norm([0.3, -0.5, 0.81])
+    cos_max = np.cos(np.radians(35.0))
+    disk, cone, sphere = np.zeros((n, 2)), np.zeros((n, 3)), np.zeros((n, 3))
+    _warp_samples(tuple(axis), cos_max, rng.random(n), rng.random(n), disk, cone, sphere)
+    turn = lambda y, x: (np.arctan2(y, x) / (2 * np.pi)) % 1.0
+
+    r2 = (disk ** 2).sum(axis=1)
+    assert r2.max() <= 1.0 + 1e-12
+    chi2, dof = _chi2_unit_square(r2, turn(disk[:, 1], disk[:, 0]))
+    assert chi2 < chi2_critical(dof), chi2
+    # the test has power: the polar map with radius u (not sqrt(u)) crowds the centre
+    u = rng.random(n)
+    chi2, dof = _chi2_unit_square(u ** 2, rng.random(n))
+    assert chi2 > chi2_critical(dof), chi2
+
+    np.testing.assert_allclose(np.linalg.norm(cone, axis=1), 1.0, atol=1e-12)
+    cos = cone @ axis
+    assert cos.min() >= cos_max - 1e-12
+    helper = np.cross(axis, [1.0, 0.0, 0.0])
+    t = helper / np.linalg.norm(helper)
+    chi2, dof = _chi2_unit_square((1.0 - cos) / (1.0 - cos_max), turn(cone @ np.cross(axis, t), cone @ t))
+    assert chi2 < chi2_critical(dof), chi2
+
+    np.testing.assert_allclose(np.linalg.norm(sphere, axis=1), 1.0, atol=1e-12)
+    chi2, dof = _chi2_unit_square(0.5 * (1.0 - sphere[:, 2]), turn(sphere[:, 1], sphere[:, 0]))
+    assert chi2 < chi2_critical(dof), chi2

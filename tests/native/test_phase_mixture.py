@@ -1,19 +1,61 @@
 """Overlapping media with different Henyey-Greenstein g: the phase function is the mixture
-sum_k sigma_s,k HG(g_k) / sigma_s per channel (not HG of a mean g). Sampling vs the analytic
-mixture (chi-square), and single scattering of two overlapping media vs quadrature."""
+sum_k sigma_s,k HG(g_k) / sigma_s per channel (not HG of a mean g). The renderer's mixture
+sampling and evaluation (path_kernels._phase_mixture_sample / _phase_mixture_eval on the scene
+tables of two overlapping media) vs the analytic mixture (chi-square), and single scattering of
+two overlapping media vs quadrature."""
 import numpy as np
 import pytest
 
 from volpath_native import Camera, Material, Medium, PointLight, RenderSettings, Scene, World, render
-from volpath_native.phase import hg_eval, hg_mixture_pdf, hg_mixture_sample
-from volpath_native.sampling import orthonormal_basis
+from volpath_native.accel import Accelerator
+from volpath_native.integrator import scene_tables
+from volpath_native.jit import kernel
+from volpath_native.media import MediaTable
+from volpath_native.path_kernels import _component_sigma, _phase_is_mixed, _phase_mixture_eval, _phase_mixture_sample
+from volpath_native.phase import hg_eval, hg_sample
 
 from native_helpers import Z_LIMIT, box_mesh, camera_at, chi2_critical, tiny_box_film, z_scores
-from test_phase import _hg_cdf
+from test_phase import _hg_cdf, tangents
 from test_single_scattering import LIGHT, POWER, SIZE, _quadrature, _quadrature_extended
 
+# A world fog of g 0.8 overlapped by a box fog of g -0.6. Components are picked with probability
+# proportional to their mean sigma_s (Cycles volume_shader_phase_pick by sample weight): 0.3 and 0.7.
 G = np.array([0.8, -0.6])
 WEIGHTS = np.array([0.3, 0.7])
+MIX_SS = (np.array([0.2, 0.4, 0.3]), np.array([0.9, 0.5, 0.7]))  # per-channel sigma_s, means = WEIGHTS
+INSIDE_BOX = np.array([[1]], np.int8)  # volume-stack counters of a path inside the box
+OUTSIDE_BOX = np.array([[0]], np.int8)
+
+
+def _tables(scene):
+    """(MediaTable, the SceneTables the compiled stages read) of a scene."""
+    scene.validate()
+    accel = Accelerator(scene.meshes)
+    media = MediaTable(scene, accel)
+    return media, scene_tables(scene, accel, media)
+
+
+def _mixture_tables():
+    scene = _overlap_scene(1, 1, PointLight("p", LIGHT, power=POWER, radius=0.0))
+    scene.media = [Medium("world fog", MIX_SS[0], 0.05, g=G[0]), Medium("box fog", MIX_SS[1], 0.05, g=G[1])]
+    media, tables = _tables(scene)
+    assert media.mixed_phase
+    return tables
+
+
+@kernel
+def _mixture_samples(S, C, d, u1, u2, wo, f, pdf):
+    for i in range(u1.shape[0]):
+        w, fi, pdf[i] = _phase_mixture_sample(S, C, 0, (d[0], d[1], d[2]), u1[i], u2[i])
+        wo[i, 0], wo[i, 1], wo[i, 2] = w
+        f[i, 0], f[i, 1], f[i, 2] = fi
+
+
+@kernel
+def _mixture_values(S, C, cos_theta, f, pdf):
+    for i in range(cos_theta.shape[0]):
+        fi, pdf[i] = _phase_mixture_eval(S, C, 0, cos_theta[i])
+        f[i, 0], f[i, 1], f[i, 2] = fi
 
 
 def _mixture_cdf(mu, weights=WEIGHTS, gs=G):
@@ -31,37 +73,42 @@ def _chi2_against(mu, phi, cdf):
     return ((counts - expected) ** 2 / expected).sum(), counts.size - 1
 
 
-def _sample_mixture(n, seed):
+AXIS = np.array([0.3, -0.5, 0.81]) / np.linalg.norm([0.3, -0.5, 0.81])
+
+
+def _sample_mixture(n, seed, counts=INSIDE_BOX, u=None):
+    """n renderer mixture samples around AXIS: (wo, f (RGB), pdf, mu, azimuth)."""
     rng = np.random.default_rng(seed)
-    axis = np.array([0.3, -0.5, 0.81])
-    axis /= np.linalg.norm(axis)
-    d = np.tile(axis, (n, 1))
-    wo, pdf, k = hg_mixture_sample(d, np.tile(WEIGHTS, (n, 1)), G, rng.random(n), rng.random(n))
-    t, s = orthonormal_basis(axis[None, :])
-    return wo, pdf, k, wo @ axis, np.arctan2(wo @ s[0], wo @ t[0])
+    u1, u2 = u if u is not None else (rng.random(n), rng.random(n))
+    wo, f, pdf = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+    _mixture_samples(_mixture_tables(), counts, AXIS, u1, u2, wo, f, pdf)
+    t, s = tangents(AXIS)
+    return wo, f, pdf, wo @ AXIS, np.arctan2(wo @ s, wo @ t)
 
 
 def test_mixture_sampling_chi_square():
     n = 200_000
-    wo, pdf, k, mu, phi = _sample_mixture(n, 11)
+    wo, f, pdf, mu, phi = _sample_mixture(n, 11)
     np.testing.assert_allclose(np.linalg.norm(wo, axis=1), 1.0, atol=1e-9)
-    # the returned pdf is the whole mixture's, for MIS
-    np.testing.assert_allclose(pdf, WEIGHTS[0] * hg_eval(G[0], mu) + WEIGHTS[1] * hg_eval(G[1], mu), rtol=1e-9)
-    # components are picked with their weights (binomial z-test)
-    share = (k == 0).mean()
-    assert abs(share - WEIGHTS[0]) < Z_LIMIT * np.sqrt(WEIGHTS[0] * WEIGHTS[1] / n), share
+    # the returned pdf is the whole mixture's (for MIS), the value sum_k sigma_s,k HG(g_k) per channel
+    hg = [hg_eval(g, mu) for g in G]
+    np.testing.assert_allclose(pdf, WEIGHTS[0] * hg[0] + WEIGHTS[1] * hg[1], rtol=1e-9)
+    np.testing.assert_allclose(f, np.outer(hg[0], MIX_SS[0]) + np.outer(hg[1], MIX_SS[1]), rtol=1e-9)
     chi2, dof = _chi2_against(mu, phi, _mixture_cdf)
     assert chi2 < chi2_critical(dof), chi2
-    # the analytic mixture pdf integrates to 1 with mean cosine sum_k w_k g_k
+    # the evaluated mixture pdf integrates to 1 with mean cosine sum_k w_k g_k, the value to sigma_s
     grid = np.linspace(-1, 1, 400_001)
-    w = 2 * np.pi * hg_mixture_pdf(np.tile(WEIGHTS, (len(grid), 1)), G, grid)
+    values, density = np.empty((len(grid), 3)), np.empty(len(grid))
+    _mixture_values(_mixture_tables(), INSIDE_BOX, grid, values, density)
+    w = 2 * np.pi * density
     assert abs(np.trapz(w, grid) - 1) < 1e-3
     assert abs(np.trapz(w * grid, grid) - WEIGHTS @ G) < 1e-3
+    np.testing.assert_allclose(np.trapz(2 * np.pi * values, grid, axis=0), MIX_SS[0] + MIX_SS[1], rtol=1e-3)
 
 
 def test_mixture_chi_square_rejects_the_mean_g_approximation():
     """The test above has power: HG of the weighted mean g (-0.18) does not pass as the mixture,
-    nor do the mixture's samples pass as HG(mean g)."""
+    nor do the mixture's samples pass with the component weights swapped."""
     n = 200_000
     _, _, _, mu, phi = _sample_mixture(n, 12)
     mean_g = WEIGHTS @ G
@@ -72,15 +119,16 @@ def test_mixture_chi_square_rejects_the_mean_g_approximation():
 
 
 def test_single_component_mixture_is_plain_hg():
+    """Outside the box only the world's g scatters: mixture sampling is plain HG(0.8) sampling
+    with the same random numbers."""
     rng = np.random.default_rng(3)
     n = 1000
-    d = np.tile([0.0, 0.0, 1.0], (n, 1))
     u1, u2 = rng.random(n), rng.random(n)
-    wo, pdf, _ = hg_mixture_sample(d, np.tile([1.0, 0.0], (n, 1)), np.array([0.4, -0.9]), u1, u2)
-    from volpath_native.phase import hg_sample
-    wo_hg, pdf_hg = hg_sample(d, np.full(n, 0.4), u1, u2)
+    wo, f, pdf, _, _ = _sample_mixture(n, 0, OUTSIDE_BOX, (u1, u2))
+    wo_hg, pdf_hg = hg_sample(np.tile(AXIS, (n, 1)), G[0], u1, u2)
     np.testing.assert_allclose(wo, wo_hg, atol=1e-9)
     np.testing.assert_allclose(pdf, pdf_hg, rtol=1e-9)
+    np.testing.assert_allclose(f, np.outer(pdf_hg, MIX_SS[0]), rtol=1e-9)
 
 
 # ---- rendering: a forward-scattering world medium overlapped by a back-scattering box ---------
@@ -253,27 +301,24 @@ def test_phase_lobes_validation_and_round_trip(tmp_path):
 def test_stacks_with_one_g_keep_the_fast_path():
     """Overlapping media that share g (and lobes of equal g) never build mixture components;
     media of different g do, and only their overlap is mixed."""
-    from volpath_native.accel import Accelerator
-    from volpath_native.media import MediaTable
+    stacks = np.array([[0], [1]], np.int8)  # outside, inside the box
     scene = _overlap_scene(1, 1, PointLight("p", LIGHT, power=POWER, radius=0.0))
     scene.media[1].g = WORLD_G
-    scene.validate()
-    table = MediaTable(scene, Accelerator(scene.meshes))
-    assert not table.mixed_phase
-    assert not table.phase_is_mixed(np.array([[0], [1]], np.int8)).any()
+    media, tables = _tables(scene)
+    assert not media.mixed_phase and not tables.mixed_phase
+    assert not any(_phase_is_mixed(tables, stacks, p) for p in range(2))
     scene.media[1] = Medium("box fog", BOX_SS, BOX_SA, phase_lobes=[(BOX_SS / 2, WORLD_G), (BOX_SS / 2, WORLD_G)])
-    scene.validate()
-    assert not MediaTable(scene, Accelerator(scene.meshes)).mixed_phase
+    assert not _tables(scene)[0].mixed_phase
     scene.media[1] = Medium("box fog", BOX_SS, BOX_SA, g=BOX_G)
     scene.world.medium = -1  # only the box scatters: one g inside it, nothing outside
     scene.media.append(Medium("other", WORLD_SS, WORLD_SA, g=WORLD_G))  # unused medium: no effect
-    scene.validate()
-    assert not MediaTable(scene, Accelerator(scene.meshes)).mixed_phase
+    assert not _tables(scene)[0].mixed_phase
     scene.world.medium = 0
-    table = MediaTable(scene, Accelerator(scene.meshes))
-    assert table.mixed_phase
-    np.testing.assert_array_equal(table.phase_is_mixed(np.array([[0], [1]], np.int8)), [False, True])
-    sigma_k, g_k = table.phase_components(np.array([[1]], np.int8))
+    media, tables = _tables(scene)
+    assert media.mixed_phase and tables.mixed_phase
+    assert [_phase_is_mixed(tables, stacks, p) for p in range(2)] == [False, True]
+    g_k = list(tables.phase_g)
     np.testing.assert_allclose(g_k, sorted([WORLD_G, BOX_G]))
-    np.testing.assert_allclose(sigma_k[0, list(g_k).index(BOX_G)], BOX_SS)
-    np.testing.assert_allclose(sigma_k[0, list(g_k).index(WORLD_G)], WORLD_SS)
+    np.testing.assert_allclose(_component_sigma(tables, stacks, 1, g_k.index(BOX_G)), BOX_SS)
+    np.testing.assert_allclose(_component_sigma(tables, stacks, 1, g_k.index(WORLD_G)), WORLD_SS)
+    np.testing.assert_allclose(_component_sigma(tables, stacks, 0, g_k.index(BOX_G)), 0.0)

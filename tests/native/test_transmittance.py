@@ -1,36 +1,132 @@
-"""Transmittance through a slab and through nested media equals exp(-sum sigma_t d)."""
+"""The homogeneous-medium estimators the compiled stages call per path (media.py scalar
+kernels, driven here through small @kernel loops shaped like the stages): free flight, truncated
+free flight and equiangular sampling are unbiased (z-tests with the sample variance), emission
+integrals are exact; and transmittance through a slab and through nested media equals
+exp(-sum sigma_t d) in renders."""
 import numpy as np
+import pytest
 
 from volpath_native import Camera, Material, Medium, RenderSettings, Scene, World, render
-from volpath_native import media as md
+from volpath_native.jit import kernel
+from volpath_native.media import (channel_probabilities1, distance_pdf1, emission_integral1, equiangular_pdf1,
+                                  equiangular_sample1, equiangular_setup1, sample_distance1,
+                                  sample_distance_truncated1, transmittance1, transmittance3,
+                                  truncated_distance_pdf1)
 
 from native_helpers import Z_LIMIT, box_mesh, camera_at, tiny_box_film
 
+N = 200_000
+
+
+def _assert_mean(weights, expected):
+    """z-test of the sample mean of per-sample estimates (N,) or (N, 3) against expected (the
+    standard error is floored at rounding level: some estimators here have zero variance)."""
+    error = np.maximum(weights.std(axis=0, ddof=1) / np.sqrt(len(weights)), 1e-12 * np.abs(expected))
+    z = (weights.mean(axis=0) - expected) / error
+    assert np.all(np.abs(z) < Z_LIMIT), (z, weights.mean(axis=0), expected)
+
+
+@kernel
+def _free_flight_weights(beta, sigma_s, sigma_t, d, u_channel, u, passed, collided):
+    """Per sample, as the renderer's free-flight stage: the pass-through weight T(d) / P(t > d)
+    when the sampled distance t passes d, else the collision weight sigma_s T(t) / pdf(t)."""
+    pc = channel_probabilities1(beta, sigma_s, sigma_t, 1.0, 1.0, 1.0)
+    for i in range(u.shape[0]):
+        t = sample_distance1(sigma_t, pc, u_channel[i], u[i])
+        passed[i, :] = 0.0
+        collided[i, :] = 0.0
+        if t < d:
+            pdf, _, tr = distance_pdf1(sigma_t, pc, t)
+            for c in range(3):
+                collided[i, c] = sigma_s[c] * tr[c] / pdf
+        else:
+            _, survival, tr = distance_pdf1(sigma_t, pc, d)
+            for c in range(3):
+                passed[i, c] = tr[c] / survival
+
 
 def test_free_flight_estimator_is_unbiased_for_chromatic_media():
-    """The pass-through weight T(d) / P(t > d) of channel-averaged free-flight sampling has
-    expectation T(d) per channel (z-test with the sample variance)."""
+    """The pass-through weight has expectation T(d) per channel, the collision weight the
+    single-scattering albedo integral sigma_s / sigma_t (1 - T(d))."""
     rng = np.random.default_rng(1)
-    n = 200_000
-    sigma_t = np.tile([0.5, 2.0, 4.0], (n, 1))
+    sigma_t = np.array([0.5, 2.0, 4.0])
     sigma_s = sigma_t * [0.9, 0.5, 0.1]
-    beta = np.tile([1.0, 0.7, 0.2], (n, 1))
-    d = np.full(n, 0.6)
-    p = md.channel_probabilities(beta, sigma_s, sigma_t)
-    t = md.sample_distance(sigma_t, p, rng.random(n), rng.random(n))
-    _, surv, tr = md.distance_pdf(sigma_t, p, d)
-    estimate = np.where((t > d)[:, None], tr / surv[:, None], 0.0)
-    expected = np.exp(-sigma_t[0] * 0.6)
-    z = (estimate.mean(axis=0) - expected) / (estimate.std(axis=0, ddof=1) / np.sqrt(n))
-    assert np.all(np.abs(z) < Z_LIMIT), z
-    # and the collision weight sigma_s T / pdf integrates to the single-scattering albedo integral
-    hit = t < d
-    pdf, _, trt = md.distance_pdf(sigma_t[hit], p[hit], t[hit])
-    collide = np.zeros((n, 3))
-    collide[hit] = sigma_s[hit] * trt / pdf[:, None]
-    expected = sigma_s[0] / sigma_t[0] * (1 - np.exp(-sigma_t[0] * 0.6))
-    z = (collide.mean(axis=0) - expected) / (collide.std(axis=0, ddof=1) / np.sqrt(n))
-    assert np.all(np.abs(z) < Z_LIMIT), z
+    passed, collided = np.empty((N, 3)), np.empty((N, 3))
+    _free_flight_weights((1.0, 0.7, 0.2), tuple(sigma_s), tuple(sigma_t), 0.6, rng.random(N), rng.random(N),
+                         passed, collided)
+    _assert_mean(passed, np.exp(-sigma_t * 0.6))
+    _assert_mean(collided, sigma_s / sigma_t * (1 - np.exp(-sigma_t * 0.6)))
+
+
+@kernel
+def _truncated_weights(beta, sigma_s, sigma_t, t_end, u_channel, u, out):
+    """T(t) / pdf(t) for t from free flight truncated to [0, t_end], as medium NEE samples it
+    (channels that cannot be sampled, sigma_t = 0 with t_end = inf, are excluded)."""
+    finite = np.isfinite(t_end)
+    pc = channel_probabilities1(beta, sigma_s, sigma_t, 1.0 if (sigma_t[0] > 0.0 or finite) else 0.0,
+                                1.0 if (sigma_t[1] > 0.0 or finite) else 0.0,
+                                1.0 if (sigma_t[2] > 0.0 or finite) else 0.0)
+    for i in range(u.shape[0]):
+        t = sample_distance_truncated1(sigma_t, pc, u_channel[i], u[i], t_end)
+        tr = transmittance3(sigma_t, t)
+        pdf = truncated_distance_pdf1(sigma_t, pc, tr, t_end)
+        for c in range(3):
+            out[i, c] = tr[c] / pdf
+
+
+@pytest.mark.parametrize("sigma_t, t_end", [([0.5, 2.0, 4.0], 0.8),  # chromatic, finite segment
+                                            ([0.0, 1.0, 3.0], 1.5),  # a channel sampled uniformly
+                                            ([0.3, 1.0, 2.5], np.inf),  # unbounded segment
+                                            ([1.2, 1.2, 1.2], 0.7)])  # grey: one mass for all channels
+def test_truncated_free_flight_is_unbiased(sigma_t, t_end):
+    """E[T(t) / pdf(t)] = int_0^t_end T = (1 - T(t_end)) / sigma_t (t_end where sigma_t = 0)."""
+    rng = np.random.default_rng(2)
+    sigma_t = np.array(sigma_t)
+    sigma_s = sigma_t * [0.8, 0.5, 0.3]
+    out = np.empty((N, 3))
+    _truncated_weights((0.3, 1.0, 0.6), tuple(sigma_s), tuple(sigma_t), t_end, rng.random(N), rng.random(N), out)
+    expected = np.where(sigma_t > 0, -np.expm1(-sigma_t * t_end) / np.where(sigma_t > 0, sigma_t, 1.0), t_end)
+    _assert_mean(out, expected)
+
+
+@kernel
+def _equiangular_weights(o, d, t_end, light, sigma_t, u, t, out):
+    """T(t) / |x(t) - light|^2 / pdf(t) for t from equiangular sampling toward the light."""
+    setup = equiangular_setup1(o, d, t_end, light)
+    for i in range(u.shape[0]):
+        t[i] = equiangular_sample1(setup, u[i])
+        x0, x1, x2 = o[0] + d[0] * t[i] - light[0], o[1] + d[1] * t[i] - light[1], o[2] + d[2] * t[i] - light[2]
+        out[i] = transmittance1(sigma_t, t[i]) / (x0 * x0 + x1 * x1 + x2 * x2) / equiangular_pdf1(setup, t[i])
+
+
+@pytest.mark.parametrize("t_end", [0.4, 3.0, np.inf])
+def test_equiangular_sampling_is_unbiased(t_end):
+    """E[T(t) / r(t)^2 / pdf(t)] = int_0^t_end T / r^2 (Gauss-Legendre on t = tan), with the
+    light beside the ray, ahead of the segment's end or beyond it."""
+    rng = np.random.default_rng(3)
+    o, d, light, sigma = np.array([0.1, -0.2, 0.3]), np.array([0.6, 0.0, 0.8]), (1.5, 0.4, 2.0), 0.7
+    t, out = np.empty(N), np.empty(N)
+    _equiangular_weights(tuple(o), tuple(d), t_end, light, sigma, rng.random(N), t, out)
+    assert t.min() >= 0.0 and t.max() <= t_end
+    x, w = np.polynomial.legendre.leggauss(200)
+    top = np.arctan(t_end) if np.isfinite(t_end) else 0.5 * np.pi
+    ts = np.tan(0.5 * top * (x + 1))
+    jac = 0.5 * top / np.cos(0.5 * top * (x + 1)) ** 2
+    r2 = ((o + ts[:, None] * d - light) ** 2).sum(axis=1)
+    _assert_mean(out, (w * jac * np.exp(-sigma * ts) / r2).sum())
+
+
+def test_emission_integral_and_transmittance_edge_cases():
+    """int_0^d emission T(t) dt per channel, analytic vs trapezoid; non-attenuating channels
+    emit d * emission on finite segments and nothing on infinite ones; exp(-0 * inf) = 1."""
+    emission, sigma_t = (1.0, 2.0, 3.0), (0.5, 0.0, 2.0)
+    ts = np.linspace(0.0, 1.5, 200_001)
+    expected = np.trapz(np.array(emission) * np.exp(-np.outer(ts, sigma_t)), ts, axis=0)
+    np.testing.assert_allclose(emission_integral1(emission, sigma_t, 1.5), expected, rtol=1e-9)
+    np.testing.assert_allclose(emission_integral1(emission, sigma_t, np.inf), [2.0, 0.0, 1.5])
+    assert transmittance1(0.0, np.inf) == 1.0 and transmittance1(2.0, np.inf) == 0.0
+    np.testing.assert_allclose(transmittance3((0.5, 0.0, 2.0), 1.5), np.exp([-0.75, 0.0, -3.0]), rtol=1e-14)
+    np.testing.assert_allclose(transmittance3((0.5, 0.5, 0.5), 2.0), [np.exp(-1.0)] * 3, rtol=1e-14)
 
 
 def _slab_scene(media, boxes, size=8):
