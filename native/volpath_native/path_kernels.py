@@ -58,7 +58,7 @@ P_FREE_FLIGHT, P_NEE_SEGMENT, P_LAMP, P_SHADOW_MEDIUM, P_SHADOW_SURFACE = range(
 _STREAM_BASE = 1 << 40
 _MAX_STEPS, _MAX_GRIDS = 64, 16
 
-# Random dimensions within one iteration (see sampling.event_dimension).
+# Random dimensions within one iteration (see sampling.CAMERA_DIMS).
 D_CHANNEL, D_DISTANCE, D_MED_SELECT, D_MED_TECH, D_MED_T, D_MED_CHANNEL, D_MED_LU, D_MED_LV, \
     D_PHASE_U, D_PHASE_V, D_RR, D_SURF_SELECT, D_SURF_LU, D_SURF_LV, D_BSDF_U, D_BSDF_V = range(16)
 
