@@ -71,7 +71,13 @@ class CameraModel:
             origins_local = np.stack([x, y, -np.full(n, cam.clip_start)], axis=1)
             local_dir = np.tile([0.0, 0.0, -1.0], (n, 1))
             tmax = np.full(n, cam.clip_end - cam.clip_start)
-        directions = local_dir @ self.rotation.T
+        directions = self._rotate(local_dir)
         directions /= norm(directions)[:, None]
-        origins = origins_local @ self.rotation.T + self.position
+        origins = self._rotate(origins_local) + self.position
         return origins, directions, tmax
+
+    def _rotate(self, v: np.ndarray) -> np.ndarray:
+        """v @ rotation.T column by column: a (N,3) @ (3,3) product goes to BLAS, whose thread
+        pool then spins on the other cores while the render threads need them."""
+        r = self.rotation
+        return v[:, 0:1] * r[:, 0] + v[:, 1:2] * r[:, 1] + v[:, 2:3] * r[:, 2]

@@ -53,6 +53,9 @@ GridTables = namedtuple("GridTables", [
 
 #: Uniform dimensions reserved per stream; tracking stops (weight 0) rather than exceed them.
 STREAM_DIMENSIONS = 1 << 20
+# Tracking modes of _track, as numpy scalars: a Python int constant would be typed as a literal
+# and compile a separate copy of the tracker per mode.
+_FREE_FLIGHT, _TRANSMITTANCE = np.int64(0), np.int64(1)
 #: G.flags entries.
 FLAG_MAJORANT, FLAG_MINORANT, FLAG_OVERFLOW = 0, 1, 2
 
@@ -348,14 +351,14 @@ def grid_free_flight(G, ox, oy, oz, dx, dy, dz, t_max, key, stream, br, bg, bb):
     factor for beta (sigma_s / pdf included at a scatter, an unbiased transmittance estimate
     otherwise) and the emission to add as L += beta_in * emission (beta_in: the throughput at the
     segment start)."""
-    return _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, 0, br, bg, bb)
+    return _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, _FREE_FLIGHT, br, bg, bb)
 
 
 @stage_kernel
 def grid_transmittance(G, ox, oy, oz, dx, dy, dz, t_max, key, stream):
     """Unbiased transmittance estimate (rgb) over [0, t_max] along a unit ray: residual ratio
     tracking with the cell minorant as control (exact where the density is constant)."""
-    r = _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, 1, 1.0, 1.0, 1.0)
+    r = _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, _TRANSMITTANCE, 1.0, 1.0, 1.0)
     return r[2], r[3], r[4]
 
 

@@ -146,16 +146,16 @@ class Integrator:
         grid_tables = tuple(grid._call_tables() for grid in self.grids)
         grid_tables += (_no_grid_tables(),) * max(GRID_SLOTS - len(grid_tables), 0)
         iteration = 0
+        pk.ray_buffers(F, n, o32, d32, t32)
         while n:
             if cancel is not None and cancel():
                 raise Cancelled()
-            pk.ray_buffers(F, n, o32, d32, t32)
             hits = self.accel.intersect_raw(o32[:n], d32[:n], t32[:n])
             stats["rays"] += n
             m = pk.shade(self.tables, self.lights.tables, grid_tables, n, iteration, F, I, K, C, hits.t,
                          hits.prim, hits.u, hits.v, L, alive, SF, SI, SK, SC, counter)
             self._trace_shadows(grid_tables, SF, SI, SK, SC, m, so32, sd32, st32, margin, L, stats, iteration)
-            n = pk.compact(F, I, K, C, n, alive)
+            n = pk.compact(F, I, K, C, n, alive, o32, d32, t32)
             iteration += 1
         stats["vertices"] = int(counter[0])
         for grid, tables in zip(self.grids, grid_tables):

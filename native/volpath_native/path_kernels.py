@@ -793,8 +793,9 @@ def _move_row(A, src, dst):
 
 
 @stage_kernel
-def compact(F, I, K, C, n, alive):
-    """Move the live paths to the front (stable); returns how many live."""
+def compact(F, I, K, C, n, alive, o32, d32, t32):
+    """Move the live paths to the front (stable) and write their next rays for Embree (as
+    ray_buffers, in the same pass); returns how many live."""
     out = 0
     for p in range(n):
         if not alive[p]:
@@ -804,5 +805,9 @@ def compact(F, I, K, C, n, alive):
             _move_row(I, p, out)
             K[out] = K[p]
             _move_row(C, p, out)
+        for c in range(3):
+            o32[out, c] = F[out, O + c]
+            d32[out, c] = F[out, D + c]
+        t32[out] = min(F[out, TMAX], 1e30)
         out += 1
     return out

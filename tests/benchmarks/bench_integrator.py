@@ -146,34 +146,41 @@ def gil_probe(scene: Scene, batch: int) -> dict:
     return dict(alone=alone, embree=with_embree / alone, render=with_render / alone)
 
 
-def cpu_time_efficiency(scene: Scene, batch: int, repeats: int = 3) -> dict:
-    """Paths and rays per second of CPU time of one thread on one batch (best of `repeats`), and
-    raw embreex per CPU second on the same geometry and batch: CPU time barely moves when other
-    processes compete for the cores, so this efficiency is comparable between runs, unlike the
-    wall-clock one."""
+def cpu_time_efficiency(scene: Scene, batch: int, rounds: int = 9) -> dict:
+    """Tracing efficiency from CPU time of one thread, paired: each round renders one batch and
+    then times raw embreex (same geometry, batch size and float32 layout) on as many closest-hit
+    and occlusion queries as that batch traced; the ratio of the two times is that round's
+    efficiency, and the median over rounds is reported. Interleaving makes both sides of each
+    ratio see the same machine (this VM's speed drifts by +-30 % within a minute)."""
     from volpath_native.integrator import Integrator
     integrator = Integrator(scene)
     n = min(batch, 256 * 256)
-    best, stats = np.inf, None
-    for r in range(repeats):
-        start = time.thread_time()
-        _, stats = integrator.render_paths(np.arange(n), np.full(n, r, np.int64))
-        best = min(best, time.thread_time() - start)
     accel = integrator.accel
     o, d, tmax = _random_rays(batch)
     far = np.full(batch, 1e30, np.float32)
-    raw = {}
-    for name, fn in (("closest", lambda: accel.intersect_raw(o, d, far)),
-                     ("occluded", lambda: accel.occluded_raw(o, d, tmax))):
+
+    def per_ray(fn):
         fn()
         start = time.thread_time()
-        for _ in range(8):
+        for _ in range(3):
             fn()
-        raw[name] = 8 * batch / (time.thread_time() - start)
-    rays, shadow = stats["rays"], stats["shadow_rays"]
-    raw_mix = (rays + shadow) / (rays / raw["closest"] + shadow / raw["occluded"])
-    return dict(paths=n / best, rays=(rays + shadow) / best, raw_mix=raw_mix,
-                efficiency=(rays + shadow) / best / raw_mix)
+        return (time.thread_time() - start) / (3 * batch)
+    integrator.render_paths(np.arange(n), np.full(n, rounds, np.int64))  # first-call costs
+    efficiencies, paths, rays_per_second, raw_per_second = [], [], [], []
+    for r in range(rounds):
+        start = time.thread_time()
+        _, stats = integrator.render_paths(np.arange(n), np.full(n, r, np.int64))
+        render_time = time.thread_time() - start
+        rays, shadow = stats["rays"], stats["shadow_rays"]
+        raw_time = rays * per_ray(lambda: accel.intersect_raw(o, d, far)) + \
+            shadow * per_ray(lambda: accel.occluded_raw(o, d, tmax))
+        efficiencies.append(raw_time / render_time)
+        paths.append(n / render_time)
+        rays_per_second.append((rays + shadow) / render_time)
+        raw_per_second.append((rays + shadow) / raw_time)
+    return dict(paths=float(np.median(paths)), rays=float(np.median(rays_per_second)),
+                raw_mix=float(np.median(raw_per_second)), efficiency=float(np.median(efficiencies)),
+                efficiency_range=(min(efficiencies), max(efficiencies)))
 
 
 def run(spp: int, batch: int, profile: bool) -> None:
@@ -203,7 +210,8 @@ def run(spp: int, batch: int, profile: bool) -> None:
     cpu = cpu_time_efficiency(cornell_fog_scene(spp=1, threads=1, batch_size=batch), batch)
     print(f"  1 thread, CPU time only (load-insensitive): {cpu['paths'] / 1e3:.1f} k paths/s, "
           f"{cpu['rays'] / 1e6:.2f} M rays/s vs raw embreex {cpu['raw_mix'] / 1e6:.2f} M rays/s (same mix) "
-          f"-> tracing efficiency {cpu['efficiency']:.3f}")
+          f"-> tracing efficiency {cpu['efficiency']:.3f} (median of paired rounds, "
+          f"range {cpu['efficiency_range'][0]:.3f}-{cpu['efficiency_range'][1]:.3f})")
     gil = gil_probe(cornell_fog_scene(spp=1, threads=1, batch_size=batch), batch)
     print(f"  GIL probe: a second Python thread keeps {gil['embree']:.2f} of its solo speed during Embree "
           f"queries and {gil['render']:.2f} during render_paths -> render threads overlap "
