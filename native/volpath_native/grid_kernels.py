@@ -183,6 +183,16 @@ def _axis_start(o, d, t_enter, cells):
 
 
 @stage_kernel
+def _next_crossing(nx, ny, nz):
+    """(axis, t) of the nearest majorant-cell boundary among the three axes' next crossings."""
+    if nx <= ny and nx <= nz:
+        return 0, nx
+    if ny <= nz:
+        return 1, ny
+    return 2, nz
+
+
+@stage_kernel
 def _dda_start(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
     """DDA state of a ray on [t_min, t_max] in majorant-cell coordinates: (active, t, t_exit,
     cell (3), next crossing (3), crossing spacing (3), step (3)). Ray parameters stay world
@@ -238,12 +248,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
     draws = np.int64(0)
     while active:
         rate = G.residual_rate[cx, cy, cz] if mode == 1 else G.majorant[cx, cy, cz]
-        if nx <= ny and nx <= nz:
-            axis, crossing = 0, nx
-        elif ny <= nz:
-            axis, crossing = 1, ny
-        else:
-            axis, crossing = 2, nz
+        axis, crossing = _next_crossing(nx, ny, nz)
         cell_end = min(crossing, t_exit)
         if draws >= STREAM_DIMENSIONS - 1:  # a collision needs up to two more dimensions
             G.flags[FLAG_OVERFLOW] += 1
@@ -405,12 +410,7 @@ def dda_cells1(G, ox, oy, oz, dx, dy, dz, t_min, t_max, cells, spans):
         G, ox, oy, oz, dx, dy, dz, t_min, t_max)
     count = 0
     while active and count < len(cells):
-        if nx <= ny and nx <= nz:
-            axis, crossing = 0, nx
-        elif ny <= nz:
-            axis, crossing = 1, ny
-        else:
-            axis, crossing = 2, nz
+        axis, crossing = _next_crossing(nx, ny, nz)
         cell_end = min(crossing, t_exit)
         cells[count, 0], cells[count, 1], cells[count, 2] = cx, cy, cz
         spans[count, 0], spans[count, 1] = t, cell_end

@@ -146,7 +146,7 @@ class Integrator:
         grid_tables = tuple(grid._call_tables() for grid in self.grids)
         grid_tables += (_no_grid_tables(),) * max(GRID_SLOTS - len(grid_tables), 0)
         iteration = 0
-        pk.ray_buffers(F, n, o32, d32, t32)
+        pk.ray_buffers(F, n, pk.O, pk.D, pk.TMAX, o32, d32, t32)
         while n:
             if cancel is not None and cancel():
                 raise Cancelled()
@@ -167,7 +167,7 @@ class Integrator:
         if not m:
             return
         if not self.has_null:
-            pk.shadow_buffers(SF, m, so32, sd32, st32)
+            pk.ray_buffers(SF, m, pk.S_O, pk.S_D, pk.S_REMAINING, so32, sd32, st32)
             blocked = self.accel.occluded_raw(so32[:m], sd32[:m], st32[:m])
             stats["shadow_rays"] += m
             pk.shadow_unoccluded(SF, SI, m, blocked, margin, L)
@@ -175,7 +175,7 @@ class Integrator:
         for step in range(pk.MAX_VOLUME_BOUNDS):
             if not m:
                 return
-            pk.shadow_buffers(SF, m, so32, sd32, st32)
+            pk.ray_buffers(SF, m, pk.S_O, pk.S_D, pk.S_REMAINING, so32, sd32, st32)
             hits = self.accel.intersect_raw(so32[:m], sd32[:m], st32[:m])
             stats["shadow_rays"] += m
             m = pk.shadow_step(self.tables, grid_tables, SF, SI, SK, SC, m, hits.t, hits.prim, margin, L,

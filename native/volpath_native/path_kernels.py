@@ -768,22 +768,14 @@ def shadow_step(S, GR, SF, SI, SK, SC, m, hit_t, hit_prim, margin, L, iteration,
 # Queue plumbing
 # ---------------------------------------------------------------------------------------------
 @stage_kernel
-def ray_buffers(F, n, o32, d32, t32):
-    """Contiguous float32 rays for Embree from the packed state."""
+def ray_buffers(A, n, origin, direction, length, o32, d32, t32):
+    """Contiguous float32 rays for Embree from rows 0..n-1 of a packed state (paths: O, D, TMAX;
+    shadow queue: S_O, S_D, S_REMAINING)."""
     for p in range(n):
         for c in range(3):
-            o32[p, c] = F[p, O + c]
-            d32[p, c] = F[p, D + c]
-        t32[p] = min(F[p, TMAX], 1e30)
-
-
-@stage_kernel
-def shadow_buffers(SF, m, o32, d32, t32):
-    for q in range(m):
-        for c in range(3):
-            o32[q, c] = SF[q, S_O + c]
-            d32[q, c] = SF[q, S_D + c]
-        t32[q] = min(SF[q, S_REMAINING], 1e30)
+            o32[p, c] = A[p, origin + c]
+            d32[p, c] = A[p, direction + c]
+        t32[p] = min(A[p, length], 1e30)
 
 
 @inline_stage_kernel

@@ -77,3 +77,14 @@ def chi2_critical(dof, z=3.719):
     Wilson-Hilferty approximation (accurate to < 1 % for dof >= 5)."""
     h = 2.0 / (9.0 * dof)
     return dof * (1.0 - h + z * np.sqrt(h)) ** 3
+
+
+def rotated_transform(voxel_size=0.05, offset=(0.3, -0.2, 1.0)):
+    """A non-axis-aligned, anisotropically scaled index->world map (exercises every transform path)."""
+    angle = 0.4
+    rot = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+    tilt = np.array([[1, 0, 0], [0, np.cos(0.3), -np.sin(0.3)], [0, np.sin(0.3), np.cos(0.3)]])
+    m = np.eye(4)
+    m[:3, :3] = rot @ tilt @ np.diag([voxel_size, voxel_size * 1.5, voxel_size * 0.8])
+    m[:3, 3] = offset
+    return m

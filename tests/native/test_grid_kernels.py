@@ -6,6 +6,7 @@ chi-square test at the 1e-4 level.
 import numba
 import numpy as np
 import pytest
+from native_helpers import rotated_transform
 
 from volpath_native.grid_kernels import (FLAG_OVERFLOW, STREAM_DIMENSIONS, grid_free_flight, grid_scattering,
                                          grid_transmittance)
@@ -18,16 +19,6 @@ Z_1E4 = 3.719  # one-sided standard normal quantile at 1e-4
 def chi_square_critical(dof, z=Z_1E4):
     """Wilson-Hilferty approximation of the chi-square quantile (no scipy in the project)."""
     return dof * (1.0 - 2.0 / (9.0 * dof) + z * np.sqrt(2.0 / (9.0 * dof))) ** 3
-
-
-def rotated_transform(voxel_size=0.05, offset=(0.3, -0.2, 1.0)):
-    angle = 0.4
-    rot = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
-    tilt = np.array([[1, 0, 0], [0, np.cos(0.3), -np.sin(0.3)], [0, np.sin(0.3), np.cos(0.3)]])
-    m = np.eye(4)
-    m[:3, :3] = rot @ tilt @ np.diag([voxel_size, voxel_size * 1.5, voxel_size * 0.8])
-    m[:3, 3] = offset
-    return m
 
 
 # Loops shaped like the integrator's stage kernels (jit.stage_kernel: no NRT), calling the kernels per ray.

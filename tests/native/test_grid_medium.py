@@ -5,6 +5,7 @@ Statistical checks are z-tests with the estimator's own sample variance (|z| < Z
 """
 import numpy as np
 import pytest
+from native_helpers import rotated_transform
 
 from volpath_native.grid_medium import (GridMedium, MajorantTooLowError, principled_volume_coefficients,
                                         volume_object_density_factor)
@@ -18,17 +19,6 @@ def z_score(samples, expected):
     samples = np.asarray(samples, dtype=np.float64)
     stderr = samples.std(axis=0, ddof=1) / np.sqrt(len(samples))
     return np.abs(samples.mean(axis=0) - expected) / np.maximum(stderr, 1e-12)
-
-
-def rotated_transform(voxel_size=0.05, offset=(0.3, -0.2, 1.0)):
-    """A non-axis-aligned, anisotropically scaled index->world map (exercises every transform path)."""
-    angle = 0.4
-    rot = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
-    tilt = np.array([[1, 0, 0], [0, np.cos(0.3), -np.sin(0.3)], [0, np.sin(0.3), np.cos(0.3)]])
-    m = np.eye(4)
-    m[:3, :3] = rot @ tilt @ np.diag([voxel_size, voxel_size * 1.5, voxel_size * 0.8])
-    m[:3, 3] = offset
-    return m
 
 
 def ramp_medium(sigma_s, sigma_a, a=0.2, b=0.1, n=24, **kwargs):
