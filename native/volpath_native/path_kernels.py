@@ -293,6 +293,23 @@ def _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, origin, wi, dist, contrib, s
     return q + 1
 
 
+@inline_stage_kernel
+def _scatter_to(S, F, I, p, x, wo, pdf, kind, kind_limit):
+    """Start path p's next segment at scattering vertex x toward wo (sampled with pdf). The bounce
+    counters grow as in Cycles' path_state_next; past a limit the path is "terminate after
+    transparent". kind: the I column counting this kind of bounce (VOLUME or DIFFUSE)."""
+    _set3(F, p, O, x)
+    _set3(F, p, D, wo)
+    _set3(F, p, PREV, x)
+    F[p, PREV_PDF] = pdf
+    F[p, TRAVELLED] = 0.0
+    F[p, TMAX] = np.inf
+    I[p, kind] += 1
+    I[p, BOUNCE] += 1
+    if I[p, kind] > kind_limit or I[p, BOUNCE] > S.max_bounces:
+        I[p, TAT] = 1
+
+
 @stage_kernel
 def _russian_roulette(S, F, I, K, p, iteration):
     """True if path p survives; survivors are scaled by 1/q."""
@@ -434,16 +451,7 @@ def shade(S, T, GR, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, 
                 wo = (wx, wy, wz)
             if in_grid:  # MIS needs the pdf of the whole phase mixture at x (as grid NEE uses)
                 pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, _dot3(d, wo))[1]
-            _set3(F, p, O, x)
-            _set3(F, p, D, wo)
-            _set3(F, p, PREV, x)
-            F[p, PREV_PDF] = pdf
-            F[p, TRAVELLED] = 0.0
-            F[p, TMAX] = np.inf
-            I[p, VOLUME] += 1
-            I[p, BOUNCE] += 1
-            if I[p, VOLUME] > S.volume_bounces or I[p, BOUNCE] > S.max_bounces:
-                I[p, TAT] = 1
+            _scatter_to(S, F, I, p, x, wo, pdf, VOLUME, S.volume_bounces)
             alive[p] = _russian_roulette(S, F, I, K, p, iteration)
         else:
             alive[p], n_shadow = _surface(S, T, F, I, K, C, p, iteration, prim, hit_t[p], hit_u[p], hit_v[p],
@@ -563,17 +571,8 @@ def _surface(S, T, F, I, K, C, p, iteration, prim, t, hu, hv, L, SF, SI, SK, SC,
     # continue with a cosine-sampled direction (weight f cos / pdf = albedo)
     wi, pdf = lambert_sample1(ns, _u(K, p, iteration, D_BSDF_U), _u(K, p, iteration, D_BSDF_V))
     ok = _dot3(wi, n_face) > 0.0  # smooth normals may dip below the geometric surface
-    _set3(F, p, O, origin)
-    _set3(F, p, D, wi)
     _set3(F, p, BETA, _mul3(beta, albedo) if ok else (0.0, 0.0, 0.0))
-    _set3(F, p, PREV, origin)
-    F[p, PREV_PDF] = pdf
-    F[p, TRAVELLED] = 0.0
-    F[p, TMAX] = np.inf
-    I[p, BOUNCE] += 1
-    I[p, DIFFUSE] += 1
-    if I[p, DIFFUSE] > S.diffuse_bounces or I[p, BOUNCE] > S.max_bounces:
-        I[p, TAT] = 1
+    _scatter_to(S, F, I, p, origin, wi, pdf, DIFFUSE, S.diffuse_bounces)
     return _russian_roulette(S, F, I, K, p, iteration), n_shadow
 
 
@@ -756,10 +755,7 @@ def shadow_step(S, GR, SF, SI, SK, SC, m, hit_t, hit_prim, margin, L, iteration,
             continue
         # keep: move to the front of the queue
         if out != q:
-            _move_row(SF, q, out)
-            _move_row(SI, q, out)
-            SK[out] = SK[q]
-            _move_row(SC, q, out)
+            _move_entry(SF, SI, SK, SC, q, out)
         out += 1
     return out
 
@@ -784,6 +780,16 @@ def _move_row(A, src, dst):
         A[dst, j] = A[src, j]
 
 
+@inline_stage_kernel
+def _move_entry(F, I, K, C, src, dst):
+    """Copy one queue entry (float fields, int fields, key, volume stack) from src to dst: the
+    path state and the shadow queue share this layout."""
+    _move_row(F, src, dst)
+    _move_row(I, src, dst)
+    K[dst] = K[src]
+    _move_row(C, src, dst)
+
+
 @stage_kernel
 def compact(F, I, K, C, n, alive, o32, d32, t32):
     """Move the live paths to the front (stable) and write their next rays for Embree (as
@@ -793,10 +799,7 @@ def compact(F, I, K, C, n, alive, o32, d32, t32):
         if not alive[p]:
             continue
         if out != p:
-            _move_row(F, p, out)
-            _move_row(I, p, out)
-            K[out] = K[p]
-            _move_row(C, p, out)
+            _move_entry(F, I, K, C, p, out)
         for c in range(3):
             o32[out, c] = F[out, O + c]
             d32[out, c] = F[out, D + c]
