@@ -26,7 +26,6 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
     bl_use_shading_nodes_custom = False  # Blender's own shader nodes are our materials
 
     def render(self, depsgraph):
-        global _kernels_ready
         compat.isolate_embree()
         try:
             import volpath_native as vp
@@ -58,9 +57,7 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         # bottom-up.
         result = self.begin_result(0, 0, width, height, layer=layer_name)
         total = scene.settings.samples
-        # Without volpath_native.warm_up() the first render compiles its kernels as it goes.
-        stage = "rendering" if _kernels_ready else "Compiling render kernels (first render only)"
-        self.update_stats("", f"VolPath | exported in {export_seconds:.2f} s | {stage}")
+        self.update_stats("", f"VolPath | exported in {export_seconds:.2f} s | rendering")
 
         def progress(done, samples_total, stats):
             self.update_progress(done / max(samples_total, 1))
@@ -84,8 +81,6 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             self.end_result(result)
             self._fail(f"VolPath failed while rendering: {type(error).__name__}: {error}")
             return
-        if not output.cancelled:  # every kernel has run by now, with or without warm_up()
-            _kernels_ready = True
         for message in output.warnings:
             if message not in warnings:
                 self.report({"WARNING"}, message)
@@ -100,12 +95,11 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         Blender session and before the render clock starts. Compiling after an install takes tens
         of seconds, hence the status text. Returns False (error reported) if that fails."""
         global _kernels_ready
-        warm_up = getattr(vp, "warm_up", None)
-        if _kernels_ready or warm_up is None:
+        if _kernels_ready:
             return True
         self.update_stats("", "VolPath | Compiling render kernels (first render only)")
         try:
-            warm_up()
+            vp.warm_up()
         except Exception as error:
             traceback.print_exc()
             self._fail(f"VolPath could not compile its render kernels: {type(error).__name__}: {error}")

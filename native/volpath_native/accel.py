@@ -113,15 +113,6 @@ class Accelerator:
             return np.zeros(len(o32), dtype=bool)
         return self._embree.run(o32, d32, dists=t32.copy(), query="OCCLUDED") >= 0
 
-    def occluded(self, origins: np.ndarray, directions: np.ndarray, tmax: np.ndarray) -> np.ndarray:
-        """True where something blocks the ray before tmax."""
-        n = len(origins)
-        if self._embree is None or n == 0:
-            return np.zeros(n, dtype=bool)
-        o = np.ascontiguousarray(origins, dtype=np.float32)
-        d = np.ascontiguousarray(directions, dtype=np.float32)
-        dists = np.minimum(tmax, 1e30).astype(np.float32)
-        return self._embree.run(o, d, dists=dists, query="OCCLUDED") >= 0
 
     def shading_normals(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Interpolated smooth normals where the mesh has them, else geometric normals."""

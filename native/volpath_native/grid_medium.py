@@ -46,8 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .grid_kernels import (FLAG_MAJORANT, FLAG_MINORANT, FLAG_OVERFLOW, STREAM_DIMENSIONS, GridTables,
-                           box_interval_many, coefficients_many, dda_cells1, density_many, grid_free_flight,
-                           grid_scattering, grid_transmittance, track_many)
+                           box_interval_many, coefficients_many, dda_cells1, density_many, track_many)
 from .scene import Mesh, SceneError, rgb
 
 __all__ = ["GridMedium", "FreeFlight", "MajorantTooLowError", "principled_volume_coefficients",
@@ -537,26 +536,6 @@ class GridMedium:
             _, sigma_t, _ = self.coefficients(origins + dirs * t[:, None])
             tau += sigma_t * ((hi - lo) / steps)[:, None]
         return tau
-
-
-def warm_up() -> None:
-    """Compile (or load from numba's cache) every grid kernel on a tiny medium, so the first render
-    does not pay for it mid-frame."""
-    medium = GridMedium("warm-up", np.ones((2, 2, 2), np.float32), np.eye(4), 1.0, 1.0, emission=0.1,
-                        emission_grid=np.zeros((2, 2, 2, 3), np.float32))
-    rng = np.random.default_rng(0)
-    o, d = np.full((1, 3), 0.5), np.array([[0.0, 0.0, 1.0]])
-    medium.sample_free_flight(o, d, 1.0, rng)
-    medium.transmittance(o, d, 1.0, rng)
-    medium.transmittance(o, d, 1.0, rng, residual=False)
-    medium.density_at(o)
-    medium.optical_depth(o, d, 1.0, steps=1)
-    medium.dda_cells(o[0], d[0])
-    G = medium.tables
-    key = np.uint64(1)
-    grid_free_flight(G, 0.5, 0.5, 0.5, 0.0, 0.0, 1.0, 1.0, key, 0, 1.0, 1.0, 1.0)
-    grid_transmittance(G, 0.5, 0.5, 0.5, 0.0, 0.0, 1.0, 1.0, key, 0)
-    grid_scattering(G, 0.5, 0.5, 0.5)
 
 
 def _points(a) -> np.ndarray:

@@ -6,19 +6,13 @@ chi-square test at the 1e-4 level.
 import numba
 import numpy as np
 import pytest
-from native_helpers import rotated_transform
+from native_helpers import chi2_critical, rotated_transform
 
 from volpath_native.grid_kernels import (FLAG_OVERFLOW, STREAM_DIMENSIONS, grid_free_flight, grid_scattering,
                                          grid_transmittance)
-from volpath_native.grid_medium import GridMedium, warm_up
+from volpath_native.grid_medium import GridMedium
 
 Z_LIMIT = 4.0
-Z_1E4 = 3.719  # one-sided standard normal quantile at 1e-4
-
-
-def chi_square_critical(dof, z=Z_1E4):
-    """Wilson-Hilferty approximation of the chi-square quantile (no scipy in the project)."""
-    return dof * (1.0 - 2.0 / (9.0 * dof) + z * np.sqrt(2.0 / (9.0 * dof))) ** 3
 
 
 # Loops shaped like the integrator's stage kernels (jit.stage_kernel: no NRT), calling the kernels per ray.
@@ -106,7 +100,7 @@ def test_grid_free_flight_scatter_distances_follow_the_exponential_pdf():
     expected = count * np.append(np.diff(cdf), np.exp(-sigma_t * length))
     assert expected.min() > 50
     chi2 = np.sum((observed - expected) ** 2 / expected)
-    assert chi2 < chi_square_critical(len(observed) - 1), (chi2, observed, expected)
+    assert chi2 < chi2_critical(len(observed) - 1), (chi2, observed, expected)
 
 
 def test_grid_scattering_is_the_sigma_s_of_coefficients():
@@ -146,4 +140,3 @@ def test_tables_of_every_medium_have_one_numba_type():
     assert len(types) == 1
     for array in (a for a in plain.tables if isinstance(a, np.ndarray)):
         assert array.flags.c_contiguous
-    warm_up()  # every kernel compiles (or loads) on a tiny medium
