@@ -462,6 +462,17 @@ def shade(S, T, GR, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, 
 
 
 @inline_stage_kernel
+def _medium_light_sample(T, K, p, iteration, row, o, d, t):
+    """The next-event vertex x = o + t d of a medium segment and a sample of light `row` from it:
+    (x, wi, dist, value, light pdf, cos(d, wi)), shared by homogeneous and grid NEE."""
+    x = (o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t)
+    wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, x[0], x[1], x[2],
+                                                           _u(K, p, iteration, D_MED_LU),
+                                                           _u(K, p, iteration, D_MED_LV))
+    return x, (wx, wy, wz), dist, (v0, v1, v2), light_pdf, d[0] * wx + d[1] * wy + d[2] * wz
+
+
+@inline_stage_kernel
 def _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, SF, SI, SK, SC, n_shadow, margin):
     """One next-event vertex on the segment [0, t_end] (see module docstring)."""
     mode = S.volume_sampling
@@ -491,20 +502,16 @@ def _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, SF
         pdf_t += (1.0 - prob_eq) * truncated_distance_pdf1(st, pc, tr, t_end)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
-    x = (o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t)
-    wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, x[0], x[1], x[2],
-                                                           _u(K, p, iteration, D_MED_LU),
-                                                           _u(K, p, iteration, D_MED_LV))
-    cos_theta = d[0] * wx + d[1] * wy + d[2] * wz
+    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(T, K, p, iteration, row, o, d, t)
     if S.mixed_phase and _phase_is_mixed(S, C, p):
         scattering, phase = _phase_mixture_eval(S, C, p, cos_theta)
     else:
         phase = hg_eval1(g, cos_theta)  # the phase pdf (MIS) and sigma_s x phase per channel
         scattering = _scale3(ss, phase)
     w = power_heuristic(light_pdf, phase) if light_pdf > 0.0 else 1.0
-    contrib = _scale3(_mul3(_mul3(_mul3(beta, tr), scattering), (v0, v1, v2)), w / pdf_t)
+    contrib = _scale3(_mul3(_mul3(_mul3(beta, tr), scattering), value), w / pdf_t)
     if _max3(contrib) > 0.0:
-        n_shadow = _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, x, (wx, wy, wz), dist, contrib, st, margin,
+        n_shadow = _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, x, wi, dist, contrib, st, margin,
                                 I[p, PID], P_SHADOW_MEDIUM)
     return n_shadow
 
@@ -688,17 +695,14 @@ def _grid_nee(S, T, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, 
     pdf_t = prob_eq * equiangular_pdf1(setup, t) + ((1.0 - prob_eq) / te if finite else 0.0)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
-    x = (o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t)
-    wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, x[0], x[1], x[2],
-                                                           _u(K, p, iteration, D_MED_LU),
-                                                           _u(K, p, iteration, D_MED_LV))
-    f, phase_pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, d[0] * wx + d[1] * wy + d[2] * wz)
+    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(T, K, p, iteration, row, o, d, t)
+    f, phase_pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, cos_theta)
     w = power_heuristic(light_pdf, phase_pdf) if light_pdf > 0.0 else 1.0
-    contrib = _scale3(_mul3(_mul3(_mul3(beta, transmittance3(st, t)), f), (v0, v1, v2)), w / pdf_t)
+    contrib = _scale3(_mul3(_mul3(_mul3(beta, transmittance3(st, t)), f), value), w / pdf_t)
     if _max3(contrib) > 0.0:
         contrib = _mul3(contrib, grids_transmittance(S, GR, C, p, o, d, t, K[p],
                                                      grid_stream(iteration, P_NEE_SEGMENT, 0, 0)))
-        n_shadow = _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, x, (wx, wy, wz), dist, contrib, st, margin,
+        n_shadow = _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, x, wi, dist, contrib, st, margin,
                                 I[p, PID], P_SHADOW_MEDIUM)
     return n_shadow
 
