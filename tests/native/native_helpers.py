@@ -72,6 +72,18 @@ def z_scores(mean_a, var_a, mean_b, var_b=0.0):
     return (mean_a - mean_b) / np.sqrt(np.maximum(var_a + var_b, 1e-30))
 
 
+def block_z_scores(a, b, block: int = 2):
+    """z-scores of the difference between two renders' means over block x block pixels (RGB),
+    with each block's variance of the mean from the renders' per-pixel variances."""
+    h, w = a.image.shape[:2]
+
+    def blocks(x, reduce):
+        return reduce(x.reshape(h // block, block, w // block, block, 3), axis=(1, 3))
+    mean = lambda r: blocks(r.image[..., :3], np.mean)
+    var = lambda r: blocks(r.variance, np.sum) / block ** 4
+    return z_scores(mean(a), var(a), mean(b), var(b))
+
+
 def chi2_critical(dof, z=3.719):
     """Upper critical value of chi-square(dof) at the normal quantile z (default p = 1e-4),
     Wilson-Hilferty approximation (accurate to < 1 % for dof >= 5)."""

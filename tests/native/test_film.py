@@ -1,14 +1,10 @@
 """The pixel filter's importance sampling: offsets must follow the filter profile."""
 import numpy as np
 import pytest
+from native_helpers import chi2_critical
 
 from volpath_native import Film
 from volpath_native.film import PixelFilter
-
-
-def _chi_square_critical(dof: int, z: float = 3.719) -> float:
-    """Upper quantile of chi-square (Wilson-Hilferty), z = 3.719 for p = 1e-4."""
-    return dof * (1.0 - 2.0 / (9.0 * dof) + z * np.sqrt(2.0 / (9.0 * dof))) ** 3
 
 
 @pytest.mark.parametrize("kind,width", [("blackman-harris", 1.5), ("gaussian", 1.5), ("box", 1.0)])
@@ -22,7 +18,7 @@ def test_filter_offsets_follow_the_profile(kind, width):
     expected = n * np.diff(np.interp(edges, f._xs, f._cdf))  # the tabulated profile's mass per bin
     keep = expected > 20
     chi2 = np.sum((observed[keep] - expected[keep]) ** 2 / expected[keep])
-    assert chi2 < _chi_square_critical(int(keep.sum()) - 1), chi2
+    assert chi2 < chi2_critical(int(keep.sum()) - 1), chi2
 
 
 def test_blackman_harris_matches_cycles_width():

@@ -14,7 +14,7 @@ from volpath_native.media import MediaTable
 from volpath_native.path_kernels import _component_sigma, _phase_is_mixed, _phase_mixture_eval, _phase_mixture_sample
 from volpath_native.phase import hg_eval, hg_sample
 
-from native_helpers import Z_LIMIT, box_mesh, camera_at, chi2_critical, tiny_box_film, z_scores
+from native_helpers import Z_LIMIT, block_z_scores, box_mesh, camera_at, chi2_critical, tiny_box_film, z_scores
 from test_phase import _hg_cdf, tangents
 from test_single_scattering import LIGHT, POWER, SIZE, _quadrature, _quadrature_extended
 
@@ -250,9 +250,7 @@ def test_grid_overlapping_media_of_different_g_matches_homogeneous_equivalent():
                      settings=RenderSettings(samples=256, seed=seed, volume_bounces=3))
     grid = render(scene(_constant_grid(ss, sa, g=g), 31))
     hom = render(scene(Medium("hom", ss, sa, g=g), 32))
-    blocks = lambda a: a.reshape(4, 2, 4, 2, 3).mean(axis=(1, 3))
-    bvar = lambda v: v.reshape(4, 2, 4, 2, 3).sum(axis=(1, 3)) / 16
-    z = z_scores(blocks(grid.image[..., :3]), bvar(grid.variance), blocks(hom.image[..., :3]), bvar(hom.variance))
+    z = block_z_scores(grid, hom)
     assert np.abs(z).max() < Z_LIMIT, np.abs(z).max()
     assert hom.image[..., :3].mean() > 0.01
 
