@@ -4,10 +4,17 @@ and clipping is planar (Cycles kernel/camera/camera.h divides the clip distances
 camera-space z)."""
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 
+from .jit import kernel
 from .scene import Camera, Film, SceneError
-from .vec import norm
+
+# What camera_ray1 reads: film size and shift in pixels, pixel size (at unit depth, or in metres
+# for orthographic), clip range, camera-to-world rotation (3,3) and position (3,).
+CameraTables = namedtuple("CameraTables", ["width", "height", "shift_x", "shift_y", "pixel_size",
+                                           "perspective", "clip_start", "clip_end", "rotation", "position"])
 
 
 def crop_window(film: Film) -> tuple[int, int, int, int]:
@@ -52,32 +59,53 @@ class CameraModel:
         # Shift moves the viewplane by shift * (fitted image size), in pixels:
         self.shift_px = np.array([camera.shift_x * self.viewfac, camera.shift_y * self.viewfac])
 
+        self.tables = CameraTables(float(self.width), float(self.height), float(self.shift_px[0]),
+                                   float(self.shift_px[1]), float(self.pixel_size),
+                                   camera.projection == "perspective", float(camera.clip_start),
+                                   float(camera.clip_end), np.ascontiguousarray(self.rotation, dtype=np.float64),
+                                   np.ascontiguousarray(self.position, dtype=np.float64))
+
     def generate_rays(self, film_x: np.ndarray, film_y: np.ndarray):
         """Rays through continuous full-frame film positions (x right, y DOWN from the top-left).
 
         Returns (origins, unit directions, tmax) in world space; origins already at the near clip."""
-        x = (film_x - 0.5 * self.width + self.shift_px[0]) * self.pixel_size
-        y = (0.5 * self.height - film_y + self.shift_px[1]) * self.pixel_size
         n = len(film_x)
-        cam = self.camera
-        if cam.projection == "perspective":
-            local = np.stack([x, y, -np.ones(n)], axis=1)
-            length = norm(local)
-            local_dir = local / length[:, None]
-            z = 1.0 / length  # |camera-space z| of the unit direction
-            origins_local = local_dir * (cam.clip_start / z)[:, None]
-            tmax = (cam.clip_end - cam.clip_start) / z
-        else:
-            origins_local = np.stack([x, y, -np.full(n, cam.clip_start)], axis=1)
-            local_dir = np.tile([0.0, 0.0, -1.0], (n, 1))
-            tmax = np.full(n, cam.clip_end - cam.clip_start)
-        directions = self._rotate(local_dir)
-        directions /= norm(directions)[:, None]
-        origins = self._rotate(origins_local) + self.position
-        return origins, directions, tmax
+        o, d, tmax = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+        _camera_rays_many(self.tables, np.ascontiguousarray(film_x, np.float64),
+                          np.ascontiguousarray(film_y, np.float64), o, d, tmax)
+        return o, d, tmax
 
-    def _rotate(self, v: np.ndarray) -> np.ndarray:
-        """v @ rotation.T column by column: a (N,3) @ (3,3) product goes to BLAS, whose thread
-        pool then spins on the other cores while the render threads need them."""
-        r = self.rotation
-        return v[:, 0:1] * r[:, 0] + v[:, 1:2] * r[:, 1] + v[:, 2:3] * r[:, 2]
+
+@kernel
+def camera_ray1(cam, film_x, film_y):
+    """(origin, unit direction, tmax) of the ray through one full-frame film position."""
+    x = (film_x - 0.5 * cam.width + cam.shift_x) * cam.pixel_size
+    y = (0.5 * cam.height - film_y + cam.shift_y) * cam.pixel_size
+    if cam.perspective:
+        # through (x, y, -1) at unit depth; planar clipping divides by the direction's depth
+        length = np.sqrt(x * x + y * y + 1.0)
+        lx, ly, lz = x / length, y / length, -1.0 / length
+        ox, oy, oz = x * cam.clip_start, y * cam.clip_start, -cam.clip_start
+        tmax = (cam.clip_end - cam.clip_start) * length
+    else:
+        lx, ly, lz = 0.0, 0.0, -1.0
+        ox, oy, oz = x, y, -cam.clip_start
+        tmax = cam.clip_end - cam.clip_start
+    r = cam.rotation
+    dx = r[0, 0] * lx + r[0, 1] * ly + r[0, 2] * lz
+    dy = r[1, 0] * lx + r[1, 1] * ly + r[1, 2] * lz
+    dz = r[2, 0] * lx + r[2, 1] * ly + r[2, 2] * lz
+    inv = 1.0 / np.sqrt(dx * dx + dy * dy + dz * dz)  # the rotation may carry the object's scale
+    return ((r[0, 0] * ox + r[0, 1] * oy + r[0, 2] * oz + cam.position[0],
+             r[1, 0] * ox + r[1, 1] * oy + r[1, 2] * oz + cam.position[1],
+             r[2, 0] * ox + r[2, 1] * oy + r[2, 2] * oz + cam.position[2]),
+            (dx * inv, dy * inv, dz * inv), tmax)
+
+
+@kernel
+def _camera_rays_many(cam, film_x, film_y, o, d, tmax):
+    for i in range(film_x.shape[0]):
+        origin, direction, tmax[i] = camera_ray1(cam, film_x[i], film_y[i])
+        for c in range(3):
+            o[i, c] = origin[c]
+            d[i, c] = direction[c]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .jit import kernel
 from .scene import Film, SceneError
 
 _TABLE_SIZE = 1024
@@ -53,17 +54,34 @@ class PixelFilter:
         # The inverse CDF tabulated on a uniform grid of u, read with linear interpolation (as
         # Cycles' filter_table_sample / lookup_table_read): O(1) per sample where inverting the
         # CDF needs a binary search, and every camera ray draws two.
-        self._inverse = np.interp(np.linspace(0.0, 1.0, _INVERSE_SIZE + 1), cdf, xs)
+        self.inverse = np.interp(np.linspace(0.0, 1.0, _INVERSE_SIZE + 1), cdf, xs)
 
     def sample(self, u: np.ndarray) -> np.ndarray:
         """Offsets distributed as the 1D filter profile for uniform u in [0, 1)."""
-        position = u * _INVERSE_SIZE
-        index = np.minimum(position.astype(np.int64), _INVERSE_SIZE - 1)
-        fraction = position - index
-        return self._inverse[index] * (1.0 - fraction) + self._inverse[index + 1] * fraction
+        u = np.ascontiguousarray(u, dtype=np.float64)
+        out = np.empty(u.shape)
+        _filter_offsets_many(self.inverse, u.reshape(-1), out.reshape(-1))
+        return out
 
     def pdf(self, x: np.ndarray) -> np.ndarray:
         """Normalised 1D density of offsets (for tests)."""
         dens = np.diff(self._cdf) / np.diff(self._xs)
         idx = np.clip(np.searchsorted(self._xs, x, side="right") - 1, 0, len(dens) - 1)
         return np.where(np.abs(x) <= self.support, dens[idx], 0.0)
+
+
+@kernel
+def filter_offset1(inverse, u):
+    """Offset from the pixel centre for uniform u in [0, 1): the inverse CDF table read with
+    linear interpolation."""
+    size = inverse.shape[0] - 1
+    position = u * size
+    index = min(np.int64(position), size - 1)
+    fraction = position - index
+    return inverse[index] * (1.0 - fraction) + inverse[index + 1] * fraction
+
+
+@kernel
+def _filter_offsets_many(inverse, u, out):
+    for i in range(u.shape[0]):
+        out[i] = filter_offset1(inverse, u[i])

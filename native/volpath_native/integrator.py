@@ -10,6 +10,8 @@ The estimators and their references are listed in path_kernels.py.
 """
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from . import path_kernels as pk
@@ -19,7 +21,7 @@ from .film import PixelFilter
 from .grid_medium import GridMedium
 from .lights import LightSet
 from .media import MediaTable
-from .sampling import path_keys, uniform
+from .sampling import seed_key
 from .scene import Scene
 
 
@@ -92,53 +94,46 @@ class Integrator:
         self.grids = [grid for _, grid in self.media.grid_volumes]
         self.has_null = bool(self.tables.tri_null.any())
         self.warnings = self.lights.warnings + self.media.warnings
-        self._camera_stack = None
-        if self.media.n_volumes and scene.camera.projection == "perspective":
+        # Paths start in the camera's volume stack (Cycles volume_stack_init); orthographic rays
+        # start from different points, each with its own stack.
+        self._stack_per_path = bool(self.media.n_volumes) and scene.camera.projection != "perspective"
+        self._camera_stack = self.media.empty_stack(1)[0]
+        if self.media.n_volumes and not self._stack_per_path:
             self._camera_stack = self.media.stack_at(self.camera.position[None, :])[0]
+        self._seed_key = seed_key(self.settings.seed)
+        self._thread_buffers = threading.local()
 
     # -----------------------------------------------------------------------------------------
-    def _initial_state(self, pixel: np.ndarray, sample: np.ndarray):
-        st = self.settings
+    def _buffers(self, n: int) -> "_Buffers":
+        """This thread's path state and shadow queue for n paths."""
+        buffers = getattr(self._thread_buffers, "buffers", None)
+        if buffers is None or buffers.capacity < n:
+            buffers = self._thread_buffers.buffers = _Buffers(n, len(self._camera_stack))
+        return buffers
+
+    def _start_paths(self, pixel: np.ndarray, sample: np.ndarray, buffers: "_Buffers"):
         n = len(pixel)
-        x0, y0, cw, _ = self.crop
-        px, py = x0 + pixel % cw, y0 + pixel // cw
-        # keyed by the full-frame pixel, so a crop renders exactly the pixels of the full frame
-        keys = path_keys(st.seed, py * self.scene.film.width + px, sample)
-        fx = px + 0.5 + self.filter.sample(uniform(keys, 0))
-        fy = py + 0.5 + self.filter.sample(uniform(keys, 1))
-        o, d, tmax = self.camera.generate_rays(fx, fy)
-        if self._camera_stack is not None:
-            counts = np.repeat(self._camera_stack[None, :], n, axis=0)
-        elif self.media.n_volumes:
-            counts = self.media.stack_at(o)
-        else:
-            counts = self.media.empty_stack(n)
-        F = np.zeros((n, pk.NF))
-        F[:, pk.O:pk.O + 3] = o
-        F[:, pk.D:pk.D + 3] = d
-        F[:, pk.BETA:pk.BETA + 3] = 1.0
-        F[:, pk.PREV:pk.PREV + 3] = o
-        F[:, pk.TMAX] = tmax
-        I = np.zeros((n, pk.NI), np.int64)
-        I[:, pk.PID] = np.arange(n)
-        C = np.ascontiguousarray(counts, dtype=np.int8)
-        pk.initial_coefficients(self.tables, C, F, n)
-        return F, I, np.ascontiguousarray(keys, dtype=np.uint64), C
+        F, I, K, C = buffers.F[:n], buffers.I[:n], buffers.K[:n], buffers.C[:n]
+        o32, d32, t32 = buffers.o32[:n], buffers.d32[:n], buffers.t32[:n]
+        x0, y0, crop_width, _ = self.crop
+        pk.start_paths(self.tables, self.camera.tables, self.filter.inverse, self._seed_key, (x0, y0, crop_width),
+                       self.scene.film.width, np.ascontiguousarray(pixel, np.int64),
+                       np.ascontiguousarray(sample, np.int64), self._camera_stack, F, I, K, C, o32, d32, t32)
+        if self._stack_per_path:
+            C[:] = self.media.stack_at(F[:, pk.O:pk.O + 3])
+            pk.initial_coefficients(self.tables, C, F, n)
+        return F, I, K, C, o32, d32, t32
 
     def render_paths(self, pixel: np.ndarray, sample: np.ndarray, cancel=None):
         """Radiance estimates (N,3) for paths (crop-region pixel index, sample index) and stats."""
         n = len(pixel)
         stats = dict(rays=0, shadow_rays=0, vertices=0, paths=n)
-        F, I, K, C = self._initial_state(pixel, sample)
+        buffers = self._buffers(n)
+        F, I, K, C, o32, d32, t32 = self._start_paths(pixel, sample, buffers)
+        Q = buffers.queue
         L = np.zeros((n, 3))
-        alive = np.ones(n, bool)
-        o32, d32, t32 = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, np.float32)
-        # up to two shadow rays per path and iteration (medium NEE + surface NEE)
-        SF = np.empty((2 * n, pk.NSF))
-        SI = np.empty((2 * n, pk.NSI), np.int64)
-        SK = np.empty(2 * n, np.uint64)
-        SC = np.empty((2 * n, C.shape[1]), np.int8)
-        so32, sd32, st32 = np.empty((2 * n, 3), np.float32), np.empty((2 * n, 3), np.float32), np.empty(2 * n, np.float32)
+        alive = buffers.alive[:n]
+        alive[:] = True
         counter = np.zeros(1, np.int64)
         margin = 2.0 * self.accel.epsilon
         # grid tables with a violation record private to this batch (threads never share it),
@@ -146,15 +141,14 @@ class Integrator:
         grid_tables = tuple(grid._call_tables() for grid in self.grids)
         grid_tables += (_no_grid_tables(),) * max(GRID_SLOTS - len(grid_tables), 0)
         iteration = 0
-        pk.ray_buffers(F, n, pk.O, pk.D, pk.TMAX, o32, d32, t32)
         while n:
             if cancel is not None and cancel():
                 raise Cancelled()
             hits = self.accel.intersect_raw(o32[:n], d32[:n], t32[:n])
             stats["rays"] += n
             m = pk.shade(self.tables, self.lights.tables, grid_tables, n, iteration, F, I, K, C, hits.t,
-                         hits.prim, hits.u, hits.v, L, alive, SF, SI, SK, SC, counter)
-            self._trace_shadows(grid_tables, SF, SI, SK, SC, m, so32, sd32, st32, margin, L, stats, iteration)
+                         hits.prim, hits.u, hits.v, L, alive, Q, counter, o32, d32, t32)
+            self._trace_shadows(grid_tables, Q, m, margin, L, stats, iteration)
             n = pk.compact(F, I, K, C, n, alive, o32, d32, t32)
             iteration += 1
         stats["vertices"] = int(counter[0])
@@ -162,26 +156,42 @@ class Integrator:
             grid.check_flags(tables)
         return L, stats
 
-    def _trace_shadows(self, grid_tables, SF, SI, SK, SC, m, so32, sd32, st32, margin, L, stats, iteration):
+    def _trace_shadows(self, grid_tables, Q, m, margin, L, stats, iteration):
         """Transmittance of queued shadow rays, added to L where the light is reached."""
         if not m:
             return
         if not self.has_null:
-            pk.ray_buffers(SF, m, pk.S_O, pk.S_D, pk.S_REMAINING, so32, sd32, st32)
-            blocked = self.accel.occluded_raw(so32[:m], sd32[:m], st32[:m])
+            blocked = self.accel.occluded_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m])
             stats["shadow_rays"] += m
-            pk.shadow_unoccluded(SF, SI, m, blocked, margin, L)
+            pk.shadow_unoccluded(Q.F, Q.I, m, blocked, margin, L)
             return
         for step in range(pk.MAX_VOLUME_BOUNDS):
             if not m:
                 return
-            pk.ray_buffers(SF, m, pk.S_O, pk.S_D, pk.S_REMAINING, so32, sd32, st32)
-            hits = self.accel.intersect_raw(so32[:m], sd32[:m], st32[:m])
+            hits = self.accel.intersect_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m])
             stats["shadow_rays"] += m
-            m = pk.shadow_step(self.tables, grid_tables, SF, SI, SK, SC, m, hits.t, hits.prim, margin, L,
-                               iteration, step)
+            m = pk.shadow_step(self.tables, grid_tables, Q, m, hits.t, hits.prim, margin, L, iteration, step)
         # rays still crossing boundaries after the limit count as blocked (Cycles VOLUME_BOUNDS_MAX)
 
+
+
+class _Buffers:
+    """Path state (path_kernels' layout) and shadow queue for up to `capacity` paths, kept per
+    thread and reused by its batches: fresh arrays for every batch cost a page fault per 4 KiB
+    (the kernel zeroes each new page), several per cent of a render."""
+
+    def __init__(self, capacity: int, volumes: int):
+        self.capacity = capacity
+        self.F, self.I = np.empty((capacity, pk.NF)), np.empty((capacity, pk.NI), np.int64)
+        self.K, self.C = np.empty(capacity, np.uint64), np.empty((capacity, volumes), np.int8)
+        self.o32, self.d32 = np.empty((capacity, 3), np.float32), np.empty((capacity, 3), np.float32)
+        self.t32 = np.empty(capacity, np.float32)
+        self.alive = np.empty(capacity, bool)
+        # up to two shadow rays per path and iteration (medium NEE + surface NEE)
+        q = 2 * capacity
+        self.queue = pk.ShadowQueue(np.empty((q, pk.NSF)), np.empty((q, pk.NSI), np.int64), np.empty(q, np.uint64),
+                                    np.empty((q, volumes), np.int8), np.empty((q, 3), np.float32),
+                                    np.empty((q, 3), np.float32), np.empty(q, np.float32))
 
 
 _NO_GRID_TABLES = None

@@ -11,7 +11,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .jit import stage_kernel
+from .jit import inline_stage_kernel, stage_kernel
 from .mis import mis_weight
 from .sampling import concentric_disk1, local_to_world1, uniform_cone1, uniform_sphere1
 
@@ -242,7 +242,7 @@ def _sample_world(T, row, u1, u2):
             T.strength[row, 2] * _FOUR_PI, 1.0 / _FOUR_PI)
 
 
-@stage_kernel
+@inline_stage_kernel
 def sample_light(T, row, px, py, pz, u1, u2):
     """Sample light `row` as seen from p: (wx, wy, wz, dist, vr, vg, vb, pdf) with w the unit
     direction to the light, dist the distance to the sampled point (inf for distant lights),

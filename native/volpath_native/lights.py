@@ -30,9 +30,13 @@ from .light_kernels import (AREA_ELLIPSE, AREA_RECT, DISK, POINT, SPHERE, SUN, T
                             distant_emission_many, has_position_many, lamp_crossing_many, sample_many,
                             select_many, triangle_emission_many)
 from .scene import AreaLight, PointLight, Scene, SpotLight, SunLight
-from .vec import any_positive
 
 _HITTABLE = (SPHERE, DISK, AREA_RECT, AREA_ELLIPSE)
+
+
+def any_positive(a: np.ndarray) -> np.ndarray:
+    """Rows of an (N, 3) array with a positive component."""
+    return np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2]) > 0
 
 
 @dataclass

@@ -143,7 +143,10 @@ def transmittance3(sigma_t, distance):
 @kernel
 def channel_probabilities1(beta, sigma_s, sigma_t, v0, v1, v2):
     """Channel pdf ~ |throughput * albedo| plus a uniform share (Cycles volume_sample_channel),
-    restricted to the valid channels v0..v2 (renormalised; all zero if none is valid)."""
+    restricted to the valid channels v0..v2 (renormalised; all zero if none is valid). In a grey
+    medium every channel samples the same distances, so the choice does not matter."""
+    if sigma_t[1] == sigma_t[0] and sigma_t[2] == sigma_t[0] and v1 == v0 and v2 == v0:
+        return v0 / 3.0, v0 / 3.0, v0 / 3.0
     w0 = abs(beta[0]) * (sigma_s[0] / sigma_t[0] if sigma_t[0] > 0.0 else 0.0)
     w1 = abs(beta[1]) * (sigma_s[1] / sigma_t[1] if sigma_t[1] > 0.0 else 0.0)
     w2 = abs(beta[2]) * (sigma_s[2] / sigma_t[2] if sigma_t[2] > 0.0 else 0.0)
@@ -174,7 +177,7 @@ def pick_channel1(p, u):
 def sample_distance1(sigma_t, p, u_channel, u):
     """Untruncated exponential free flight with the chosen channel; inf where sigma = 0."""
     s = sigma_t[pick_channel1(p, u_channel)]
-    return -np.log1p(-u) / s if s > 0.0 else np.inf
+    return -np.log(1.0 - u) / s if s > 0.0 else np.inf  # 1 - u is exact for u = k 2^-53
 
 
 @kernel
@@ -245,28 +248,35 @@ def emission_integral1(emission, sigma_t, distance):
 
 # Equiangular sampling toward a point (Kulla & Fajardo 2012, "Importance Sampling Techniques for
 # Path Tracing in Participating Media", section 4.1; Cycles kernel/integrator/shade_volume.h).
+# The angles are theta = atan((t - delta) / D) at t = 0 and t_end. Only their difference (the
+# span) is needed: tan(b - a) = (tan b - tan a) / (1 + tan a tan b) gives it with one atan2, and
+# the sample's tan(theta_0 + u span) expands the same way -- Cycles evaluates two atan2.
 @kernel
 def equiangular_setup1(o, d, t_end, light):
-    """(delta, D, theta_a, theta_b) of equiangular sampling toward `light` along the unit ray
-    o + t d, t in [0, t_end] (t_end may be inf)."""
+    """(delta, D, span) of equiangular sampling toward `light` along the unit ray o + t d,
+    t in [0, t_end] (t_end may be inf): delta is the distance along the ray to the point nearest
+    the light, D the light's distance from the ray, span the angle the segment subtends."""
     delta = (light[0] - o[0]) * d[0] + (light[1] - o[1]) * d[1] + (light[2] - o[2]) * d[2]
     cx = light[0] - (o[0] + d[0] * delta)
     cy = light[1] - (o[1] + d[1] * delta)
     cz = light[2] - (o[2] + d[2] * delta)
     D = max(np.sqrt(cx * cx + cy * cy + cz * cz), 1e-7)
-    theta_a = np.arctan2(-delta, D)
-    theta_b = np.arctan2(t_end - delta, D) if np.isfinite(t_end) else 0.5 * np.pi
-    return delta, D, theta_a, theta_b
+    if np.isfinite(t_end):
+        span = np.arctan2(t_end * D, D * D - delta * (t_end - delta))
+    else:
+        span = np.arctan2(D, -delta)
+    return delta, D, span
 
 
 @kernel
 def equiangular_sample1(setup, u):
-    delta, D, ta, tb = setup
-    return delta + D * np.tan(ta + u * (tb - ta))
+    """t = delta + D tan(theta_0 + u span) with tan(theta_0) = -delta / D."""
+    delta, D, span = setup
+    b = np.tan(u * span)
+    return delta + D * (D * b - delta) / (D + delta * b)
 
 
 @kernel
 def equiangular_pdf1(setup, t):
-    delta, D, ta, tb = setup
-    span = max(tb - ta, 1e-12)
-    return D / (span * (D * D + (t - delta) ** 2))
+    delta, D, span = setup
+    return D / (max(span, 1e-12) * (D * D + (t - delta) ** 2))

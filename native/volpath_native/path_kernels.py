@@ -3,8 +3,9 @@ queries that integrator.py issues (pbrt-v4 src/pbrt/wavefront/integrator.cpp run
 as ParallelFor loops over its queues).
 
 Path state is a structure of arrays packed for locality: `F` (n, NF) float64 fields, `I` (n, NI)
-int64 fields, `K` (n,) uint64 random keys, `C` (n, V) int8 volume-stack counters. Shadow rays
-produced by a stage go to a queue (`SF`, `SI`, `SC`) and are traced in bulk afterwards.
+int64 fields, `K` (n,) uint64 random keys, `C` (n, V) int8 volume-stack counters, and the next ray
+of each path in Embree's float32 layout. Shadow rays produced by a stage go to a queue
+(ShadowQueue, the same layout) and are traced in bulk afterwards.
 
 Estimators and their references (each block below says which it implements):
 - free flight in chromatic media: one-sample spectral MIS, channel pdf averaged (pbrt-v4
@@ -28,6 +29,8 @@ from collections import namedtuple
 import numpy as np
 
 from .bsdf import lambert_eval1, lambert_sample1
+from .camera import camera_ray1
+from .film import filter_offset1
 from .grid_kernels import STREAM_DIMENSIONS, grid_free_flight, grid_scattering, grid_transmittance
 from .jit import inline_stage_kernel, stage_kernel, uniform1
 from .light_kernels import (escaped_emission_mis, lamp_crossing, light_has_position, light_position, sample_light,
@@ -37,7 +40,7 @@ from .media import (channel_probabilities1, distance_pdf1, emission_integral1, e
                     transmittance1, transmittance3, truncated_distance_pdf1)
 from .mis import mis_weight, power_heuristic
 from .phase import hg_eval1, hg_sample1
-from .sampling import CAMERA_DIMS, DIMS_PER_EVENT
+from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, path_key1
 
 # F columns
 O, D, BETA, PREV = 0, 3, 6, 9
@@ -64,6 +67,8 @@ D_CHANNEL, D_DISTANCE, D_MED_SELECT, D_MED_TECH, D_MED_T, D_MED_CHANNEL, D_MED_L
 
 MAX_VOLUME_BOUNDS = 1024  # Cycles' VOLUME_BOUNDS_MAX: null crossings are not transparent bounces
 VOLUME_SAMPLING = {"mis": 0, "distance": 1, "equiangular": 2}
+
+ShadowQueue = namedtuple("ShadowQueue", ["F", "I", "K", "C", "o32", "d32", "t32"])
 
 # Everything the stages read about the scene (built once per scene by integrator.py).
 SceneTables = namedtuple("SceneTables", [
@@ -153,7 +158,7 @@ def grids_transmittance(S, GR, C, p, o, d, dist, key, stream_of):
 # ---------------------------------------------------------------------------------------------
 # Volume stack (Cycles kernel/integrator/volume_stack.h): counters per volume, coefficients add
 # ---------------------------------------------------------------------------------------------
-@stage_kernel
+@inline_stage_kernel
 def stack_coefficients(S, C, p, F):
     """Homogeneous sigma_s, sigma_t, emission and g of path p's stack, written to F. g is the
     sigma_s-weighted mean: exact where one g scatters; mixed stacks use phase components."""
@@ -189,6 +194,40 @@ def initial_coefficients(S, C, F, n):
 
 
 @stage_kernel
+def start_paths(S, cam, filter_inverse, seed_key, crop, full_width, pixel, sample, stack, F, I, K, C, o32, d32, t32):
+    """Camera rays and initial state of paths (crop-region pixel index, sample index). crop:
+    (x0, y0, width) of the crop region in the full frame; keys use the full-frame pixel, so a crop
+    renders exactly the pixels of the full frame. Every path starts in the volume stack `stack`
+    (the camera's)."""
+    x0, y0, crop_width = crop
+    for p in range(pixel.shape[0]):
+        px = x0 + pixel[p] % crop_width
+        py = y0 + pixel[p] // crop_width
+        key = path_key1(seed_key, py * full_width + px, sample[p])
+        origin, direction, tmax = camera_ray1(cam, px + 0.5 + filter_offset1(filter_inverse, uniform1(key, 0)),
+                                              py + 0.5 + filter_offset1(filter_inverse, uniform1(key, 1)))
+        for j in range(F.shape[1]):
+            F[p, j] = 0.0
+        _set3(F, p, O, origin)
+        _set3(F, p, D, direction)
+        _set3(F, p, BETA, (1.0, 1.0, 1.0))
+        _set3(F, p, PREV, origin)
+        F[p, TMAX] = tmax
+        for j in range(I.shape[1]):
+            I[p, j] = 0
+        I[p, PID] = p
+        K[p] = key
+        for v in range(C.shape[1]):
+            C[p, v] = stack[v]
+        if p == 0:
+            stack_coefficients(S, C, p, F)
+        else:  # the same stack: the same coefficients
+            for j in range(SS, G + 1):
+                F[p, j] = F[0, j]
+        _write_ray(F, p, O, D, TMAX, o32, d32, t32, p)
+
+
+@inline_stage_kernel
 def stack_sigma_t(S, C, p):
     s0 = S.world_sigma_s[0] + S.world_sigma_a[0]
     s1 = S.world_sigma_s[1] + S.world_sigma_a[1]
@@ -201,7 +240,7 @@ def stack_sigma_t(S, C, p):
     return s0, s1, s2
 
 
-@stage_kernel
+@inline_stage_kernel
 def cross_boundary(S, C, p, prim, front):
     """Enter (front face) or leave (back face) the volume bounded by triangle prim."""
     v = S.tri_volume[prim]
@@ -277,19 +316,30 @@ def _phase_mixture_sample(S, C, p, d, u1, u2):
 
 
 @inline_stage_kernel
-def _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, origin, wi, dist, contrib, sigma_t, margin, pid, purpose):
+def _write_ray(A, row, origin, direction, length, o32, d32, t32, out):
+    """Row `out` of Embree's float32 ray buffers from a packed state row (paths: O, D, TMAX;
+    shadow queue: S_O, S_D, S_REMAINING)."""
+    for c in range(3):
+        o32[out, c] = A[row, origin + c]
+        d32[out, c] = A[row, direction + c]
+    t32[out] = min(A[row, length], 1e30)
+
+
+@inline_stage_kernel
+def _push_shadow(Q, C, K, p, n_shadow, origin, wi, dist, contrib, sigma_t, margin, pid, purpose):
     q = n_shadow
-    SK[q] = K[p]
-    SI[q, SI_PURPOSE] = purpose
-    _set3(SF, q, S_O, origin)
-    _set3(SF, q, S_D, wi)
-    SF[q, S_REMAINING] = max(dist - margin, 0.0) if np.isfinite(dist) else np.inf
-    _set3(SF, q, S_CONTRIB, contrib)
-    _set3(SF, q, S_ST, sigma_t)
-    SF[q, S_LEAD] = 0.0
-    SI[q, SI_PID] = pid
+    Q.K[q] = K[p]
+    Q.I[q, SI_PURPOSE] = purpose
+    _set3(Q.F, q, S_O, origin)
+    _set3(Q.F, q, S_D, wi)
+    Q.F[q, S_REMAINING] = max(dist - margin, 0.0) if np.isfinite(dist) else np.inf
+    _set3(Q.F, q, S_CONTRIB, contrib)
+    _set3(Q.F, q, S_ST, sigma_t)
+    Q.F[q, S_LEAD] = 0.0
+    Q.I[q, SI_PID] = pid
     for v in range(C.shape[1]):
-        SC[q, v] = C[p, v]
+        Q.C[q, v] = C[p, v]
+    _write_ray(Q.F, q, S_O, S_D, S_REMAINING, Q.o32, Q.d32, Q.t32, q)
     return q + 1
 
 
@@ -329,10 +379,11 @@ def _russian_roulette(S, F, I, K, p, iteration):
 # The path stage: everything between a closest-hit query and the next one
 # ---------------------------------------------------------------------------------------------
 @stage_kernel
-def shade(S, T, GR, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, alive, SF, SI, SK, SC, stats):
+def shade(S, T, GR, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, alive, Q, stats, o32, d32, t32):
     """Advance paths 0..n-1 by one segment: medium (emission, NEE, free flight), lamps crossed,
-    escape, volume scattering or surface interaction. Shadow rays go to the queue; returns its
-    length. stats: [vertices] accumulated."""
+    escape, volume scattering or surface interaction. Shadow rays go to the queue Q; returns its
+    length. The next rays of live paths are written to o32, d32, t32. stats: [vertices]
+    accumulated."""
     eps = S.epsilon
     margin = 2.0 * eps  # shadow rays stop short of the light's own surface
     n_shadow = 0
@@ -372,24 +423,28 @@ def shade(S, T, GR, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, 
             if in_grid:
                 if not tat and n_lights > 0:
                     n_shadow = _grid_nee(S, T, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
-                                         SF, SI, SK, SC, n_shadow, margin)
+                                         Q, n_shadow, margin)
                 beta, scatter, t_scatter, event_g, grid_event = _grid_segment(
                     S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat)
             elif not tat and _max3(ss) > 0.0:
                 if n_lights > 0:
                     n_shadow = _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
-                                           SF, SI, SK, SC, n_shadow, margin)
+                                           Q, n_shadow, margin)
                 # free flight (untruncated; reaching the surface is the survival event)
                 pc = channel_probabilities1(beta, ss, st, 1.0, 1.0, 1.0)
                 p_surv = pc
                 sampled = True
                 ts = sample_distance1(st, pc, _u(K, p, iteration, D_CHANNEL), _u(K, p, iteration, D_DISTANCE))
+                grey = st[1] == st[0] and st[2] == st[0]
                 if ts < t_seg:
                     scatter = True
                     t_scatter = ts
-                    pdf, _, tr = distance_pdf1(st, pc, ts)
-                    beta = _scale3(_mul3(_mul3(beta, ss), tr), 1.0 / max(pdf, 1e-300))
-                else:
+                    if grey:  # T / pdf = 1 / sigma_t
+                        beta = _scale3(_mul3(beta, ss), 1.0 / st[0])
+                    else:
+                        pdf, _, tr = distance_pdf1(st, pc, ts)
+                        beta = _scale3(_mul3(_mul3(beta, ss), tr), 1.0 / max(pdf, 1e-300))
+                elif not grey:  # grey: T / survival = 1
                     _, surv, tr = distance_pdf1(st, pc, t_seg)
                     beta = _scale3(_mul3(beta, tr), 1.0 / surv) if surv > 0.0 else (0.0, 0.0, 0.0)
             else:
@@ -455,9 +510,11 @@ def shade(S, T, GR, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, 
             alive[p] = _russian_roulette(S, F, I, K, p, iteration)
         else:
             alive[p], n_shadow = _surface(S, T, F, I, K, C, p, iteration, prim, hit_t[p], hit_u[p], hit_v[p],
-                                          L, SF, SI, SK, SC, n_shadow, margin, stats)
+                                          L, Q, n_shadow, margin, stats)
         if alive[p]:
             alive[p] = F[p, BETA] > 0.0 or F[p, BETA + 1] > 0.0 or F[p, BETA + 2] > 0.0
+        if alive[p]:
+            _write_ray(F, p, O, D, TMAX, o32, d32, t32, p)
     return n_shadow
 
 
@@ -473,7 +530,7 @@ def _medium_light_sample(T, K, p, iteration, row, o, d, t):
 
 
 @inline_stage_kernel
-def _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, SF, SI, SK, SC, n_shadow, margin):
+def _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q, n_shadow, margin):
     """One next-event vertex on the segment [0, t_end] (see module docstring)."""
     mode = S.volume_sampling
     row = select_light(T, _u(K, p, iteration, D_MED_SELECT))
@@ -511,13 +568,13 @@ def _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, SF
     w = power_heuristic(light_pdf, phase) if light_pdf > 0.0 else 1.0
     contrib = _scale3(_mul3(_mul3(_mul3(beta, tr), scattering), value), w / pdf_t)
     if _max3(contrib) > 0.0:
-        n_shadow = _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, x, wi, dist, contrib, st, margin,
+        n_shadow = _push_shadow(Q, C, K, p, n_shadow, x, wi, dist, contrib, st, margin,
                                 I[p, PID], P_SHADOW_MEDIUM)
     return n_shadow
 
 
 @inline_stage_kernel
-def _surface(S, T, F, I, K, C, p, iteration, prim, t, hu, hv, L, SF, SI, SK, SC, n_shadow, margin, stats):
+def _surface(S, T, F, I, K, C, p, iteration, prim, t, hu, hv, L, Q, n_shadow, margin, stats):
     """Shade a surface hit; returns (continues, shadow queue length)."""
     eps = S.epsilon
     d = _get3(F, p, D)
@@ -573,7 +630,7 @@ def _surface(S, T, F, I, K, C, p, iteration, prim, t, hu, hv, L, SF, SI, SK, SC,
             w = power_heuristic(light_pdf, bsdf_pdf) if light_pdf > 0.0 else 1.0
             contrib = _scale3(_mul3(_mul3(beta, f), (v0, v1, v2)), w)
             if _max3(contrib) > 0.0:
-                n_shadow = _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, origin, wi, dist, contrib,
+                n_shadow = _push_shadow(Q, C, K, p, n_shadow, origin, wi, dist, contrib,
                                         _get3(F, p, ST), margin, pid, P_SHADOW_SURFACE)
     # continue with a cosine-sampled direction (weight f cos / pdf = albedo)
     wi, pdf = lambert_sample1(ns, _u(K, p, iteration, D_BSDF_U), _u(K, p, iteration, D_BSDF_V))
@@ -669,7 +726,7 @@ def _grid_phase_mixture(S, GR, C, p, x, ss_hom, g_hom, cos_theta):
 
 
 @inline_stage_kernel
-def _grid_nee(S, T, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, SF, SI, SK, SC, n_shadow, margin):
+def _grid_nee(S, T, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q, n_shadow, margin):
     """Next-event vertex per segment for paths inside grid volumes: the distance is drawn by
     equiangular sampling (positional lights) or uniformly on the bounded segment, one-sample MIS
     of the two; sigma_s and transmittance come from the grids (ratio tracking)."""
@@ -702,7 +759,7 @@ def _grid_nee(S, T, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, 
     if _max3(contrib) > 0.0:
         contrib = _mul3(contrib, grids_transmittance(S, GR, C, p, o, d, t, K[p],
                                                      grid_stream(iteration, P_NEE_SEGMENT, 0, 0)))
-        n_shadow = _push_shadow(SF, SI, SK, SC, C, K, p, n_shadow, x, wi, dist, contrib, st, margin,
+        n_shadow = _push_shadow(Q, C, K, p, n_shadow, x, wi, dist, contrib, st, margin,
                                 I[p, PID], P_SHADOW_MEDIUM)
     return n_shadow
 
@@ -723,15 +780,18 @@ def shadow_unoccluded(SF, SI, m, blocked, margin, L):
 
 
 @stage_kernel
-def shadow_step(S, GR, SF, SI, SK, SC, m, hit_t, hit_prim, margin, L, iteration, step):
+def shadow_step(S, GR, Q, m, hit_t, hit_prim, margin, L, iteration, step):
     """One closest-hit step of shadow rays through null boundaries: attenuate the segment, stop
     at opaque geometry (T = 0) or at the light (add contrib x T), cross null boundaries (the
     volume stack and the segment's sigma_t change). Returns how many rays continue (in place at
-    the front of the queue)."""
+    the front of the queue, their rays rewritten)."""
+    SF, SI, SK, SC = Q.F, Q.I, Q.K, Q.C
     eps = S.epsilon
     out = 0
     for q in range(m):
         hit = hit_prim[q] >= 0
+        if hit and not S.tri_null[hit_prim[q]]:
+            continue  # blocked by opaque geometry
         seg = hit_t[q] if hit else SF[q, S_REMAINING]
         length = seg + SF[q, S_LEAD] + (0.0 if hit else margin)
         tr = transmittance3(_get3(SF, q, S_ST), length)
@@ -740,8 +800,6 @@ def shadow_step(S, GR, SF, SI, SK, SC, m, hit_t, hit_prim, margin, L, iteration,
                                                grid_stream(iteration, SI[q, SI_PURPOSE], step, 0)))
         for c in range(3):
             SF[q, S_CONTRIB + c] *= tr[c]
-        if hit and not S.tri_null[hit_prim[q]]:
-            continue  # blocked
         if not hit:
             _add_radiance(L, SI[q, SI_PID], _get3(SF, q, S_CONTRIB))
             continue
@@ -760,6 +818,7 @@ def shadow_step(S, GR, SF, SI, SK, SC, m, hit_t, hit_prim, margin, L, iteration,
         # keep: move to the front of the queue
         if out != q:
             _move_entry(SF, SI, SK, SC, q, out)
+        _write_ray(SF, out, S_O, S_D, S_REMAINING, Q.o32, Q.d32, Q.t32, out)
         out += 1
     return out
 
@@ -767,17 +826,6 @@ def shadow_step(S, GR, SF, SI, SK, SC, m, hit_t, hit_prim, margin, L, iteration,
 # ---------------------------------------------------------------------------------------------
 # Queue plumbing
 # ---------------------------------------------------------------------------------------------
-@stage_kernel
-def ray_buffers(A, n, origin, direction, length, o32, d32, t32):
-    """Contiguous float32 rays for Embree from rows 0..n-1 of a packed state (paths: O, D, TMAX;
-    shadow queue: S_O, S_D, S_REMAINING)."""
-    for p in range(n):
-        for c in range(3):
-            o32[p, c] = A[p, origin + c]
-            d32[p, c] = A[p, direction + c]
-        t32[p] = min(A[p, length], 1e30)
-
-
 @inline_stage_kernel
 def _move_row(A, src, dst):
     for j in range(A.shape[1]):
@@ -796,17 +844,20 @@ def _move_entry(F, I, K, C, src, dst):
 
 @stage_kernel
 def compact(F, I, K, C, n, alive, o32, d32, t32):
-    """Move the live paths to the front (stable) and write their next rays for Embree (as
-    ray_buffers, in the same pass); returns how many live."""
-    out = 0
-    for p in range(n):
-        if not alive[p]:
-            continue
-        if out != p:
-            _move_entry(F, I, K, C, p, out)
-        for c in range(3):
-            o32[out, c] = F[out, O + c]
-            d32[out, c] = F[out, D + c]
-        t32[out] = min(F[out, TMAX], 1e30)
-        out += 1
-    return out
+    """Fill the slots of finished paths with live paths from the end of the batch, rays included;
+    returns how many live. Only as many rows move as paths ended (a stable compaction moves every
+    row behind the first gap); the order is free because results are keyed by path id."""
+    lo, hi = 0, n - 1
+    while True:
+        while lo < n and alive[lo]:
+            lo += 1
+        while hi >= 0 and not alive[hi]:
+            hi -= 1
+        if lo >= hi:
+            return lo
+        _move_entry(F, I, K, C, hi, lo)
+        _move_row(o32, hi, lo)
+        _move_row(d32, hi, lo)
+        t32[lo] = t32[hi]
+        alive[lo] = True
+        alive[hi] = False

@@ -20,24 +20,41 @@ CAMERA_DIMS = 2
 DIMS_PER_EVENT = 24
 
 
-def _mix64(x: np.ndarray) -> np.ndarray:
-    """splitmix64 (increment and finaliser) on a uint64 array, wrapping arithmetic."""
-    with np.errstate(over="ignore"):
-        z = x + _GOLDEN
-        z ^= z >> np.uint64(30)
-        z *= _MIX1
-        z ^= z >> np.uint64(27)
-        z *= _MIX2
-        z ^= z >> np.uint64(31)
+@kernel
+def _mix64(x):
+    """splitmix64 (increment and finaliser) of one uint64, wrapping arithmetic."""
+    z = x + _GOLDEN
+    z ^= z >> np.uint64(30)
+    z *= _MIX1
+    z ^= z >> np.uint64(27)
+    z *= _MIX2
+    z ^= z >> np.uint64(31)
     return z
+
+
+def seed_key(seed: int) -> np.uint64:
+    """The uint64 key of a render seed (path_key1's first argument)."""
+    return np.uint64(_mix64(np.uint64(seed & 0xFFFFFFFFFFFFFFFF)))  # numba returns a Python int
+
+
+@kernel
+def path_key1(seed_key, pixel, sample):
+    """The 64-bit key of one path from (seed key, full-frame pixel index, sample index)."""
+    return _mix64(_mix64(seed_key ^ np.uint64(pixel)) ^ (np.uint64(sample) * _GOLDEN))
 
 
 def path_keys(seed: int, pixel: np.ndarray, sample: np.ndarray) -> np.ndarray:
     """One 64-bit key per path from (seed, pixel index, sample index)."""
-    seed_key = _mix64(np.array([seed & 0xFFFFFFFFFFFFFFFF], dtype=np.uint64))
-    with np.errstate(over="ignore"):
-        k = _mix64(seed_key ^ pixel.astype(np.uint64))
-        return _mix64(k ^ (sample.astype(np.uint64) * _GOLDEN))
+    pixel, sample = np.broadcast_arrays(np.asarray(pixel, np.int64), np.asarray(sample, np.int64))
+    out = np.empty(pixel.shape, np.uint64)
+    _path_keys_many(seed_key(seed), pixel.reshape(-1), sample.reshape(-1), out.reshape(-1))
+    return out
+
+
+@kernel
+def _path_keys_many(key, pixel, sample, out):
+    for i in range(out.shape[0]):
+        out[i] = path_key1(key, pixel[i], sample[i])
 
 
 def uniform(keys: np.ndarray, dimension: int) -> np.ndarray:
