@@ -3,7 +3,10 @@
 Prints samples/s, path vertices/s and rays/s of the renderer, the raw embreex throughput on the
 same geometry and batch size in the same run, their ratio (tracing efficiency), the 1 -> 2 thread
 speedup, peak traced memory for two batch sizes and two resolutions, and a profile of where the
-time goes.  Usage: python tests/benchmarks/bench_integrator.py [--spp N] [--quick]
+time goes. The headline efficiency replays the renderer's own Embree queries through raw embreex
+(replay_efficiency); random rays in the room (raw_embree_rays_per_second) give a second, wall-clock
+baseline per thread count, which counts every shadow ray as an occlusion query although scenes
+with null boundaries trace them as closest hits.  Usage: python tests/benchmarks/bench_integrator.py [--spp N] [--quick]
 """
 from __future__ import annotations
 
@@ -146,40 +149,68 @@ def gil_probe(scene: Scene, batch: int) -> dict:
     return dict(alone=alone, embree=with_embree / alone, render=with_render / alone)
 
 
-def cpu_time_efficiency(scene: Scene, batch: int, rounds: int = 9) -> dict:
-    """Tracing efficiency from CPU time of one thread, paired: each round renders one batch and
-    then times raw embreex (same geometry, batch size and float32 layout) on as many closest-hit
-    and occlusion queries as that batch traced; the ratio of the two times is that round's
-    efficiency, and the median over rounds is reported. Interleaving makes both sides of each
-    ratio see the same machine (this VM's speed drifts by +-30 % within a minute)."""
+class _QueryRecorder:
+    """Within a `with` block, keeps a copy of every raw Embree query an Accelerator answers, to be
+    re-traced later by replay()."""
+
+    def __init__(self, accel: Accelerator):
+        self.accel, self.queries = accel, []
+        self.closest, self.occluded = accel.intersect_raw, accel.occluded_raw
+
+    def __enter__(self):
+        self.accel.intersect_raw = self._recording(self.closest)
+        self.accel.occluded_raw = self._recording(self.occluded)
+        return self
+
+    def __exit__(self, *exc):
+        self.accel.intersect_raw, self.accel.occluded_raw = self.closest, self.occluded
+
+    def _recording(self, query):
+        def recorded(o, d, t):
+            self.queries.append((query, o.copy(), d.copy(), t.copy()))
+            return query(o, d, t)
+        return recorded
+
+    @property
+    def rays(self) -> int:
+        return sum(len(o) for _, o, _, _ in self.queries)
+
+    def replay(self):
+        for query, o, d, t in self.queries:
+            query(o, d, t)
+
+
+def replay_efficiency(scene: Scene, batch: int, rounds: int = 9) -> dict:
+    """Tracing efficiency on the renderer's own rays, from CPU time of one thread: each round
+    renders one batch while recording every Embree query it makes (origins, directions, lengths,
+    closest-hit or occlusion), renders the same batch again untouched and timed, then times raw
+    embreex on the recorded queries alone. Their ratio is the share of the render that Embree
+    would need anyway: same geometry, batch size, rays and query kinds. The median over rounds is
+    reported; interleaving makes both sides of each ratio see the same machine (this VM's speed
+    drifts by +-30 % within a minute)."""
     from volpath_native.integrator import Integrator
     integrator = Integrator(scene)
     n = min(batch, 256 * 256)
-    accel = integrator.accel
-    o, d, tmax = _random_rays(batch)
-    far = np.full(batch, 1e30, np.float32)
-
-    def per_ray(fn):
-        fn()
-        start = time.thread_time()
-        for _ in range(3):
-            fn()
-        return (time.thread_time() - start) / (3 * batch)
     integrator.render_paths(np.arange(n), np.full(n, rounds, np.int64))  # first-call costs
     efficiencies, paths, rays_per_second, raw_per_second = [], [], [], []
     for r in range(rounds):
+        pixel, sample = np.arange(n), np.full(n, r, np.int64)
+        with _QueryRecorder(integrator.accel) as recorder:
+            integrator.render_paths(pixel, sample)
         start = time.thread_time()
-        _, stats = integrator.render_paths(np.arange(n), np.full(n, r, np.int64))
+        _, stats = integrator.render_paths(pixel, sample)
         render_time = time.thread_time() - start
-        rays, shadow = stats["rays"], stats["shadow_rays"]
-        raw_time = rays * per_ray(lambda: accel.intersect_raw(o, d, far)) + \
-            shadow * per_ray(lambda: accel.occluded_raw(o, d, tmax))
+        start = time.thread_time()
+        recorder.replay()
+        raw_time = time.thread_time() - start
+        rays = stats["rays"] + stats["shadow_rays"]
+        assert rays == recorder.rays
         efficiencies.append(raw_time / render_time)
         paths.append(n / render_time)
-        rays_per_second.append((rays + shadow) / render_time)
-        raw_per_second.append((rays + shadow) / raw_time)
+        rays_per_second.append(rays / render_time)
+        raw_per_second.append(rays / raw_time)
     return dict(paths=float(np.median(paths)), rays=float(np.median(rays_per_second)),
-                raw_mix=float(np.median(raw_per_second)), efficiency=float(np.median(efficiencies)),
+                raw=float(np.median(raw_per_second)), efficiency=float(np.median(efficiencies)),
                 efficiency_range=(min(efficiencies), max(efficiencies)))
 
 
@@ -204,14 +235,14 @@ def run(spp: int, batch: int, profile: bool) -> None:
         print(f"  {parallelism} x{threads}: {r.seconds:6.2f} s  {st['samples_per_second'] / 1e3:7.1f} k samples/s  "
               f"{st['vertices_per_second'] / 1e6:5.2f} M vertices/s  {st['rays_per_second'] / 1e6:5.2f} M rays/s "
               f"(closest {st['rays'] / r.seconds / 1e6:.2f} M + shadow {st['shadow_rays'] / r.seconds / 1e6:.2f} M)")
-        print(f"             raw embreex: closest {raw['closest'] / 1e6:5.2f} M rays/s, occluded "
-              f"{raw['occluded'] / 1e6:5.2f} M rays/s, same mix {raw_mix / 1e6:5.2f} M rays/s -> "
-              f"tracing efficiency {st['rays_per_second'] / raw_mix:.3f}")
-    cpu = cpu_time_efficiency(cornell_fog_scene(spp=1, threads=1, batch_size=batch), batch)
-    print(f"  1 thread, CPU time only (load-insensitive): {cpu['paths'] / 1e3:.1f} k paths/s, "
-          f"{cpu['rays'] / 1e6:.2f} M rays/s vs raw embreex {cpu['raw_mix'] / 1e6:.2f} M rays/s (same mix) "
-          f"-> tracing efficiency {cpu['efficiency']:.3f} (median of paired rounds, "
-          f"range {cpu['efficiency_range'][0]:.3f}-{cpu['efficiency_range'][1]:.3f})")
+        print(f"             raw embreex on random rays in the room: closest {raw['closest'] / 1e6:5.2f} M rays/s, "
+              f"occluded {raw['occluded'] / 1e6:5.2f} M rays/s, same mix {raw_mix / 1e6:5.2f} M rays/s -> "
+              f"ratio {st['rays_per_second'] / raw_mix:.3f} (wall clock)")
+    replay = replay_efficiency(cornell_fog_scene(spp=1, threads=1, batch_size=batch), batch)
+    print(f"  TRACING EFFICIENCY (1 thread, CPU time; raw embreex re-traces the renderer's own queries): "
+          f"{replay['efficiency']:.3f} (median of paired rounds, range {replay['efficiency_range'][0]:.3f}-"
+          f"{replay['efficiency_range'][1]:.3f}); renderer {replay['paths'] / 1e3:.1f} k paths/s, "
+          f"{replay['rays'] / 1e6:.2f} M rays/s vs raw embreex {replay['raw'] / 1e6:.2f} M rays/s on the same rays")
     gil = gil_probe(cornell_fog_scene(spp=1, threads=1, batch_size=batch), batch)
     print(f"  GIL probe: a second Python thread keeps {gil['embree']:.2f} of its solo speed during Embree "
           f"queries and {gil['render']:.2f} during render_paths -> render threads overlap "
