@@ -26,7 +26,8 @@ from collections import namedtuple
 
 import numpy as np
 
-from .jit import inline_stage_kernel, stage_kernel, uniform1
+from .jit import inline_stage_kernel, stage_kernel
+from .sampling import uniform1
 
 GridTables = namedtuple("GridTables", [
     "density",            # (nx,ny,nz) float32, padded (zero border), negative values clamped

@@ -1,5 +1,4 @@
-"""Compilation settings shared by every numba kernel of the renderer, and the per-path random
-numbers in scalar form.
+"""Compilation settings shared by every numba kernel of the renderer.
 
 Why numba: the wavefront keeps its shape (queues of paths, Embree queries in bulk between
 stages), but each stage's per-path arithmetic runs as one compiled loop instead of dozens of numpy
@@ -24,7 +23,6 @@ import os
 from pathlib import Path
 
 import numba
-import numpy as np
 
 
 def _cache_dir() -> str:
@@ -46,25 +44,3 @@ kernel = numba.njit(cache=True, nogil=True, error_model="numpy")
 # the tables (LLVM would not inline them and every call would copy the tables' descriptors).
 stage_kernel = numba.njit(cache=True, nogil=True, error_model="numpy", _nrt=False)
 inline_stage_kernel = numba.njit(cache=True, nogil=True, error_model="numpy", _nrt=False, inline="always")
-
-# splitmix64 constants: the same counter-based hash as sampling.uniform (Steele et al. 2014).
-_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
-_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
-_MIX2 = np.uint64(0x94D049BB133111EB)
-_S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
-_INV_2_53 = 1.0 / float(1 << 53)
-
-
-@kernel
-def uniform1(key, dimension):
-    """Uniform float64 in [0, 1) for one path key at one dimension; bit-identical to
-    sampling.uniform(keys, dimension). Every operand is uint64: numba turns uint64 mixed with int64
-    into float64."""
-    z = key ^ (np.uint64(dimension) * _MIX2)
-    z += _GOLDEN
-    z ^= z >> _S30
-    z *= _MIX1
-    z ^= z >> _S27
-    z *= _MIX2
-    z ^= z >> _S31
-    return np.float64(z >> _S11) * _INV_2_53

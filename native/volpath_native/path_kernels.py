@@ -32,7 +32,7 @@ from .bsdf import lambert_eval1, lambert_sample1
 from .camera import camera_ray1
 from .film import filter_offset1
 from .grid_kernels import STREAM_DIMENSIONS, grid_free_flight, grid_scattering, grid_transmittance
-from .jit import inline_stage_kernel, stage_kernel, uniform1
+from .jit import inline_stage_kernel, stage_kernel
 from .light_kernels import (escaped_emission_mis, lamp_crossing, light_has_position, light_position, sample_light,
                      select_light, triangle_emission)
 from .media import (channel_probabilities1, distance_pdf1, emission_integral1, equiangular_pdf1,
@@ -40,7 +40,7 @@ from .media import (channel_probabilities1, distance_pdf1, emission_integral1, e
                     transmittance1, transmittance3, truncated_distance_pdf1)
 from .mis import mis_weight, power_heuristic
 from .phase import hg_eval1, hg_sample1
-from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, path_key1
+from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, path_key1, uniform1
 
 # F columns
 O, D, BETA, PREV = 0, 3, 6, 9

@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .jit import kernel, uniform1
+from .jit import kernel
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
 _MIX2 = np.uint64(0x94D049BB133111EB)
+_INV_2_53 = 1.0 / float(1 << 53)
 
 # Dimension layout: 2 camera dimensions, then DIMS_PER_EVENT per integrator iteration: offset o of
 # iteration i is dimension CAMERA_DIMS + i * DIMS_PER_EVENT + o (path_kernels._u).
@@ -43,32 +44,11 @@ def path_key1(seed_key, pixel, sample):
     return _mix64(_mix64(seed_key ^ np.uint64(pixel)) ^ (np.uint64(sample) * _GOLDEN))
 
 
-def path_keys(seed: int, pixel: np.ndarray, sample: np.ndarray) -> np.ndarray:
-    """One 64-bit key per path from (seed, pixel index, sample index)."""
-    pixel, sample = np.broadcast_arrays(np.asarray(pixel, np.int64), np.asarray(sample, np.int64))
-    out = np.empty(pixel.shape, np.uint64)
-    _path_keys_many(seed_key(seed), pixel.reshape(-1), sample.reshape(-1), out.reshape(-1))
-    return out
-
-
 @kernel
-def _path_keys_many(key, pixel, sample, out):
-    for i in range(out.shape[0]):
-        out[i] = path_key1(key, pixel[i], sample[i])
-
-
-def uniform(keys: np.ndarray, dimension: int) -> np.ndarray:
-    """Uniform float64 in [0, 1) for each key at one dimension: jit.uniform1 per key, so the
-    camera's numbers come from the same hash as the compiled stages'."""
-    out = np.empty(len(keys))
-    _uniform_many(np.ascontiguousarray(keys, dtype=np.uint64), np.uint64(dimension), out)
-    return out
-
-
-@kernel
-def _uniform_many(keys, dimension, out):
-    for i in range(keys.shape[0]):
-        out[i] = uniform1(keys[i], dimension)
+def uniform1(key, dimension):
+    """Uniform float64 in [0, 1) for one path key at one dimension. Every operand is uint64:
+    numba turns uint64 mixed with int64 into float64."""
+    return np.float64(_mix64(key ^ (np.uint64(dimension) * _MIX2)) >> np.uint64(11)) * _INV_2_53
 
 
 # ---------------------------------------------------------------------------------------------

@@ -208,7 +208,7 @@ _EXTENSION_SCRIPT = textwrap.dedent('''
     sc.render.image_settings.file_format = "OPEN_EXR"
     sc.render.filepath = out_path
     bpy.ops.render.render(write_still=True)
-    from volpath_native.jit import uniform1
+    from volpath_native.sampling import uniform1
     assert 0.0 <= uniform1(np.uint64(7), 1) < 1.0  # compiled by the bundled numba, cached per user
     assert list(cache.rglob("*.nbi")), "numba wrote no cache index into " + str(cache)
 ''')
