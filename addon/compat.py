@@ -22,6 +22,15 @@ _PRINCIPLED_SOCKETS = {
     "sheen": ("Sheen Weight", "Sheen"),
     "subsurface": ("Subsurface Weight", "Subsurface"),
     "alpha": ("Alpha",),
+    "roughness": ("Roughness",),
+    "ior": ("IOR",),
+    "diffuse_roughness": ("Diffuse Roughness",),
+    "specular_tint": ("Specular Tint",),
+    "coat_roughness": ("Coat Roughness", "Clearcoat Roughness"),
+    "coat_ior": ("Coat IOR",),
+    "coat_tint": ("Coat Tint",),
+    "sheen_roughness": ("Sheen Roughness",),
+    "sheen_tint": ("Sheen Tint",),
 }
 
 # Blender's own engines whose properties panels VolPath reuses (EEVEE's id changed in 4.2 and 5.0).
