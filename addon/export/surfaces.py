@@ -100,14 +100,14 @@ def surface_terms(reader, shader_node_of, socket) -> SurfaceTerms:
     converter = _CONVERTERS.get(kind)
     if converter is None:
         reader.warn(node, f"unsupported surface shader; rendered as a {DEFAULT_GREY} grey diffuse surface")
-        return SurfaceTerms([SurfaceNode(kind="diffuse", color=np.full(3, DEFAULT_GREY))])
+        return SurfaceTerms([SurfaceNode.for_kind("diffuse", color=np.full(3, DEFAULT_GREY))])
     return converter(reader, node)
 
 
 def _diffuse(reader, node) -> SurfaceTerms:
     _warn_linked(reader, node, ("Normal",))
     return SurfaceTerms([SurfaceNode(kind="diffuse", color=reader.rgb(node, "Color"),
-                                     diffuse_roughness=reader.scalar(node, "Roughness"))])
+                                     roughness=reader.scalar(node, "Roughness"))])
 
 
 def _glossy(reader, node) -> SurfaceTerms:
@@ -137,22 +137,24 @@ def _metallic(reader, node) -> SurfaceTerms:
     _warn_linked(reader, node, ("Normal", "Tangent"))
     _thin_film(reader, node)
     physical = getattr(node, "fresnel_type", "F82") == "PHYSICAL_CONDUCTOR"
-    values = dict(kind="metallic", color=reader.rgb(node, "Base Color"), edge_tint=reader.rgb(node, "Edge Tint"),
-                  roughness=reader.scalar(node, "Roughness"), anisotropic=_anisotropy(reader, node, "Anisotropy"),
+    values = dict(kind="metallic", roughness=reader.scalar(node, "Roughness"),
+                  anisotropic=_anisotropy(reader, node, "Anisotropy"),
                   fresnel="physical" if physical else "f82", distribution=_distribution(reader, node))
+    # the evaluated node only has the sockets of its Fresnel mode
     if physical:
-        values["conductor_n"] = reader.rgb(node, "IOR")
-        values["conductor_k"] = reader.rgb(node, "Extinction")
+        values.update(conductor_n=reader.rgb(node, "IOR"), conductor_k=reader.rgb(node, "Extinction"))
+    else:
+        values.update(color=reader.rgb(node, "Base Color"), edge_tint=reader.rgb(node, "Edge Tint"))
     return SurfaceTerms([SurfaceNode(**values)])
 
 
 def _transparent(reader, node) -> SurfaceTerms:
-    return SurfaceTerms([SurfaceNode(kind="transparent", color=reader.rgb(node, "Color"))])
+    return SurfaceTerms([SurfaceNode.for_kind("transparent", color=reader.rgb(node, "Color"))])
 
 
 def _translucent(reader, node) -> SurfaceTerms:
     _warn_linked(reader, node, ("Normal",))
-    return SurfaceTerms([SurfaceNode(kind="translucent", color=reader.rgb(node, "Color"))])
+    return SurfaceTerms([SurfaceNode.for_kind("translucent", color=reader.rgb(node, "Color"))])
 
 
 def _sheen(reader, node) -> SurfaceTerms:
@@ -162,7 +164,7 @@ def _sheen(reader, node) -> SurfaceTerms:
         roughness = reader.scalar(node, "Sigma")
     else:
         roughness = reader.scalar(node, "Roughness")
-    return SurfaceTerms([SurfaceNode(kind="sheen", color=reader.rgb(node, "Color"), sheen_roughness=roughness)])
+    return SurfaceTerms([SurfaceNode(kind="sheen", color=reader.rgb(node, "Color"), roughness=roughness)])
 
 
 def _thin_film(reader, node):

@@ -191,7 +191,7 @@ class Material:
             return []
         if self.surface_nodes:
             return self.surface_nodes
-        return [SurfaceNode(kind="diffuse", color=self.base_color)] if np.any(self.base_color > 0) else []
+        return [SurfaceNode.for_kind("diffuse", color=self.base_color)] if np.any(self.base_color > 0) else []
 
     @property
     def is_emissive(self) -> bool:

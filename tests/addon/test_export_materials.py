@@ -83,29 +83,26 @@ def test_principled_bsdf_layers_are_exported(scene):
     assert warnings == []
 
 
-def test_glass_glossy_metallic_and_friends(scene):
-    cases = [
-        ("ShaderNodeBsdfGlass", dict(Color=(0.9, 0.8, 0.7, 1.0), Roughness=0.1, IOR=1.45), "glass",
-         dict(roughness=0.1, ior=1.45, distribution="multi_ggx")),
-        ("ShaderNodeBsdfRefraction", dict(Roughness=0.2, IOR=1.33), "refraction",
-         dict(roughness=0.2, ior=1.33, distribution="beckmann")),
-        ("ShaderNodeBsdfGlossy", dict(Color=(0.5, 0.5, 0.5, 1.0), Roughness=0.3), "glossy",
-         dict(roughness=0.3, distribution="multi_ggx")),
-        ("ShaderNodeBsdfMetallic", dict(Roughness=0.4), "metallic", dict(roughness=0.4, fresnel="f82")),
-        ("ShaderNodeBsdfTranslucent", dict(Color=(0.2, 0.9, 0.2, 1.0)), "translucent", {}),
-        ("ShaderNodeBsdfTransparent", dict(Color=(0.5, 0.9, 0.2, 1.0)), "transparent", {}),
-        ("ShaderNodeBsdfSheen", dict(Roughness=0.6), "sheen", dict(sheen_roughness=0.6)),
-    ]
-    for index, (node_type, inputs, kind, expected) in enumerate(cases):
-        _, material, warnings = _material(scene, node_material(f"M{index}", surface=shader(node_type, **inputs)))
-        node = _only(material, kind)
-        for field, value in expected.items():
-            assert getattr(node, field) == pytest.approx(value), (kind, field)
-        if "Color" in inputs:
-            np.testing.assert_allclose(node.color, inputs["Color"][:3], rtol=1e-6)
-        assert warnings == [], warnings
-        for obj in list(scene.objects):
-            bpy.data.objects.remove(obj)
+@pytest.mark.parametrize("node_type, inputs, kind, expected", [
+    ("ShaderNodeBsdfGlass", dict(Color=(0.9, 0.8, 0.7, 1.0), Roughness=0.1, IOR=1.45), "glass",
+     dict(roughness=0.1, ior=1.45, distribution="multi_ggx")),
+    ("ShaderNodeBsdfRefraction", dict(Roughness=0.2, IOR=1.33), "refraction",
+     dict(roughness=0.2, ior=1.33, distribution="beckmann")),
+    ("ShaderNodeBsdfGlossy", dict(Color=(0.5, 0.5, 0.5, 1.0), Roughness=0.3), "glossy",
+     dict(roughness=0.3, distribution="multi_ggx")),
+    ("ShaderNodeBsdfMetallic", dict(Roughness=0.4), "metallic", dict(roughness=0.4, fresnel="f82")),
+    ("ShaderNodeBsdfTranslucent", dict(Color=(0.2, 0.9, 0.2, 1.0)), "translucent", {}),
+    ("ShaderNodeBsdfTransparent", dict(Color=(0.5, 0.9, 0.2, 1.0)), "transparent", {}),
+    ("ShaderNodeBsdfSheen", dict(Roughness=0.6), "sheen", dict(roughness=0.6)),
+])
+def test_glass_glossy_metallic_and_friends(scene, node_type, inputs, kind, expected):
+    _, material, warnings = _material(scene, node_material("M", surface=shader(node_type, **inputs)))
+    node = _only(material, kind)
+    for field, value in expected.items():
+        assert getattr(node, field) == pytest.approx(value), (kind, field)
+    if "Color" in inputs:
+        np.testing.assert_allclose(node.color, inputs["Color"][:3], rtol=1e-6)
+    assert warnings == [], warnings
 
 
 def test_physical_conductor_exports_ior_and_extinction(scene):

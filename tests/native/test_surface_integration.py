@@ -21,7 +21,7 @@ def _slab_scene(eta, sigma_a, thickness, samples, glass_color=1.0):
     """An orthographic camera looking straight down through a wide glass slab filled with an
     absorbing liquid at an emissive floor (radiance 1); black world, so only light that went
     through the slab (possibly after internal reflections) reaches the camera."""
-    glass = Material("liquid in glass", surface_nodes=[SurfaceNode(kind="glass", ior=eta, roughness=0.0,
+    glass = Material("liquid in glass", surface_nodes=[SurfaceNode.for_kind("glass", ior=eta, roughness=0.0,
                                                                    color=np.full(3, glass_color))],
                      medium=0)
     emitter = Material("floor", base_color=0.0, emission=1.0)
@@ -83,10 +83,10 @@ def _furnace(material, samples=64, size=8):
 
 
 @pytest.mark.parametrize("node", [
-    SurfaceNode(kind="glass", ior=1.5, roughness=0.0),
-    SurfaceNode(kind="glass", ior=1.33, roughness=0.0),
-    SurfaceNode(kind="transparent", color=np.ones(3)),
-    SurfaceNode(kind="refraction", ior=1.5, roughness=0.0),  # Fresnel NONE: always transmits
+    SurfaceNode.for_kind("glass", ior=1.5, roughness=0.0),
+    SurfaceNode.for_kind("glass", ior=1.33, roughness=0.0),
+    SurfaceNode.for_kind("transparent", color=np.ones(3)),
+    SurfaceNode.for_kind("refraction", ior=1.5, roughness=0.0),  # Fresnel NONE: always transmits
 ], ids=["glass-1.5", "glass-1.33", "transparent", "refraction"])
 def test_lossless_surfaces_in_a_furnace_keep_radiance_one(node):
     result = render(_furnace(Material("ball", surface_nodes=[node])))
@@ -96,12 +96,12 @@ def test_lossless_surfaces_in_a_furnace_keep_radiance_one(node):
 
 def test_smooth_mirror_furnace_keeps_radiance_one():
     """A Glossy BSDF (no Fresnel) of colour 1 and roughness 0 is a perfect mirror."""
-    result = render(_furnace(Material("ball", surface_nodes=[SurfaceNode(kind="glossy", roughness=0.0,
+    result = render(_furnace(Material("ball", surface_nodes=[SurfaceNode.for_kind("glossy", roughness=0.0,
                                                                          color=np.ones(3))])))
     z = _image_z(result, 1.0)
     assert np.all(np.abs(z) < Z_LIMIT), z
     # a 0.97 mirror darkens the furnace measurably
-    tinted = render(_furnace(Material("ball", surface_nodes=[SurfaceNode(kind="glossy", roughness=0.0,
+    tinted = render(_furnace(Material("ball", surface_nodes=[SurfaceNode.for_kind("glossy", roughness=0.0,
                                                                          color=np.full(3, 0.97))])))
     assert np.all(np.abs(_image_z(tinted, 1.0)) > Z_LIMIT)
 
@@ -111,7 +111,7 @@ def test_shadow_rays_pass_transparent_cards_with_their_colour():
     the card receives the light times the card's colour (shadow rays pass it, Cycles'
     closure_transparent_extinction), and the card seen from above transmits the floor too."""
     tint = np.array([0.9, 0.5, 0.2])
-    card = Material("card", surface_nodes=[SurfaceNode(kind="transparent", color=tint)])
+    card = Material("card", surface_nodes=[SurfaceNode.for_kind("transparent", color=tint)])
     floor_mat = Material("floor", base_color=1.0)
     floor = Mesh("floor", np.array([[-20, -20, 0], [20, -20, 0], [20, 20, 0], [-20, 20, 0]], float),
                  np.array([[0, 1, 2], [0, 2, 3]]), np.array([0, 0]))
@@ -130,5 +130,6 @@ def test_shadow_rays_pass_transparent_cards_with_their_colour():
     x, y = np.meshgrid(centres, centres)
     r2 = x * x + y * y + 4.0
     expected = (2.0 / np.sqrt(r2) / r2 / np.pi)[..., None] * tint * tint
-    np.testing.assert_allclose(result.image[..., :3], expected, rtol=1e-5)
+    # rtol: shadow rays start epsilon (2e-4 m here) off the surface, 2 m from the lamp
+    np.testing.assert_allclose(result.image[..., :3], expected, rtol=1e-3)
     assert not np.allclose(result.image[..., :3], expected * np.sqrt(tint), rtol=1e-2)
