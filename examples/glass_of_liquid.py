@@ -24,7 +24,7 @@ def build(resolution=(64, 64), samples=64, fog_density=0.08, liquid_density=3.0)
                               Color=(1.0, 1.0, 1.0),
                               volume=("ShaderNodeVolumeAbsorption",
                                       {"Color": (0.9, 0.45, 0.1), "Density": liquid_density}))
-    sb.add_cylinder(scene, "Glass", (-0.35, 0.0, 0.0), 0.3, 0.8, liquid)
+    sb.add_cylinder(scene, "Glass", (-0.35, 0.0, 0.01), 0.3, 0.8, liquid)  # off the floor: no coplanar faces
     milky = sb.bsdf_material("Milky glass", "ShaderNodeBsdfGlass", IOR=1.5, Roughness=0.0,
                              volume=("ShaderNodeVolumeScatter", {"Color": (0.9, 0.9, 0.9), "Density": 4.0}))
     sb.add_uv_sphere(scene, "Sphere", (0.45, -0.1, 0.3), 0.3, milky)
