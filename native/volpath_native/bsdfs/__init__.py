@@ -5,11 +5,11 @@ from .closures import (LABEL_DIFFUSE, LABEL_GLOSSY, LABEL_REFLECT, LABEL_SINGULA
                        LABEL_TRANSPARENT, MAX_CLOSURES, ClosureBuffer, new_closure_buffer, setup_surface,
                        setup_surface_tangent, surface_eval, surface_is_only_transparent, surface_is_transmissive,
                        surface_sample, surface_transparency)
-from .nodes import KINDS, SurfaceNode, SurfaceNodeTable, surface_node_table
+from .nodes import KINDS, SurfaceNode, SurfaceNodeTable, check_material, surface_node_table
 from .tables import BsdfTables, bsdf_tables
 
 __all__ = ["LABEL_DIFFUSE", "LABEL_GLOSSY", "LABEL_REFLECT", "LABEL_SINGULAR", "LABEL_TRANSMIT",
            "LABEL_TRANSPARENT", "MAX_CLOSURES", "ClosureBuffer", "new_closure_buffer", "setup_surface",
            "setup_surface_tangent", "surface_eval", "surface_is_only_transparent", "surface_is_transmissive",
            "surface_sample", "surface_transparency", "KINDS", "SurfaceNode", "SurfaceNodeTable",
-           "surface_node_table", "BsdfTables", "bsdf_tables"]
+           "surface_node_table", "check_material", "BsdfTables", "bsdf_tables"]

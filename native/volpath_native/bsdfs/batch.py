@@ -7,6 +7,7 @@ import numpy as np
 
 from ..jit import kernel
 from .closures import new_closure_buffer, setup_surface_tangent, surface_eval, surface_sample
+from .microfacet import D_aniso, microfacet_eval
 from .nodes import SurfaceNode, surface_node_table
 from .tables import bsdf_tables
 
@@ -66,3 +67,23 @@ def _sample_many(CB, count, BT, wi, n, ng, u, wo, w, pdf, label):
         w[k, 0], w[k, 1], w[k, 2] = v
         pdf[k] = p
         label[k] = lab
+
+
+# --- single lobes, for quadratures (local frame: x, y, n = the coordinate axes) -------------------
+@kernel
+def distribution_many(distribution, alpha_x, alpha_y, h, out):
+    for k in range(h.shape[0]):
+        out[k] = D_aniso(distribution, alpha_x, alpha_y, (h[k, 0], h[k, 1], h[k, 2]))
+
+
+@kernel
+def microfacet_eval_many(distribution, has_reflection, has_transmission, alpha_x, alpha_y, ior, wi, wo,
+                         fresnel_type, f0, f90, f82_b, reflection_tint, transmission_tint, conductor_n,
+                         conductor_k, f, pdf):
+    x, y, n = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
+    for k in range(wo.shape[0]):
+        v, p = microfacet_eval(distribution, has_reflection, has_transmission, alpha_x, alpha_y, ior, x, y, n, wi,
+                               (wo[k, 0], wo[k, 1], wo[k, 2]), fresnel_type, f0, f90, f82_b, reflection_tint,
+                               transmission_tint, conductor_n, conductor_k)
+        f[k, 0], f[k, 1], f[k, 2] = v
+        pdf[k] = p

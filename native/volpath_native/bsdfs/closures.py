@@ -33,15 +33,14 @@ from .fresnel import (FRESNEL_CONDUCTOR, FRESNEL_DIELECTRIC, FRESNEL_F82_TINT, F
                       FRESNEL_NONE, F0_from_ior, closure_fresnel, conductor_Fss, f82_Fss, f82_tint_b,
                       fresnel_dielectric_Fss, ior_from_F0)
 from .microfacet import BECKMANN, GGX, is_singular, lambda_iso, microfacet_eval, microfacet_sample
-from .nodes import (DIST_BECKMANN, DIST_MULTI_GGX, METAL_PHYSICAL, NODE_DIFFUSE, NODE_GLASS, NODE_GLOSSY,
-                    NODE_METALLIC, NODE_PRINCIPLED, NODE_REFRACTION, NODE_SHEEN, NODE_TRANSLUCENT,
+from .nodes import (DIST_BECKMANN, DIST_MULTI_GGX, MAX_CLOSURES, METAL_PHYSICAL, NODE_DIFFUSE, NODE_GLASS,
+                    NODE_GLOSSY, NODE_METALLIC, NODE_PRINCIPLED, NODE_REFRACTION, NODE_SHEEN, NODE_TRANSLUCENT,
                     NODE_TRANSPARENT)
 from .sheen import sheen_eval, sheen_sample
 from .tables import lookup1, lookup2, lookup2_layer, lookup3
 from .vector import (average, cross, dot, length, max3, mix, normalize, orthonormals, orthonormals_tangent,
                      saturate, saturate3, scale)
 
-MAX_CLOSURES = 16  # per hit; Cycles drops closures beyond its limit the same way
 CLOSURE_WEIGHT_CUTOFF = 1e-5
 
 # closure kinds in a ClosureBuffer

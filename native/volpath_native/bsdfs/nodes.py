@@ -32,6 +32,8 @@ FRESNEL_MODES = ("f82", "physical")
 FRESNEL_MODE_CODES = {name: i for i, name in enumerate(FRESNEL_MODES)}
 METAL_F82, METAL_PHYSICAL = range(2)
 
+MAX_CLOSURES = 16  # closures per hit (closures.py); Cycles drops the ones beyond its own limit likewise
+
 RGB_FIELDS = ("color", "specular_tint", "coat_tint", "sheen_tint", "edge_tint", "conductor_n", "conductor_k")
 FLOAT_FIELDS = ("weight", "roughness", "metallic", "ior", "alpha", "diffuse_roughness", "specular_ior_level",
                 "transmission", "coat_weight", "coat_roughness", "coat_ior", "sheen_weight", "sheen_roughness",
@@ -203,6 +205,27 @@ _KIND_DEFAULTS = {
     "translucent": dict(),
     "sheen": dict(roughness=0.5),
 }
+
+
+def closure_count_bound(node: SurfaceNode) -> int:
+    """At most how many closures the node expands into (Principled: one per active layer)."""
+    if node.kind != "principled":
+        return 1
+    return (1 + (node.alpha < 1.0) + (node.sheen_weight > 1e-5) + (node.coat_weight > 1e-5)
+            + (node.metallic > 1e-5) + (node.transmission > 1e-5) + 1 + (node.subsurface_weight > 1e-5))
+
+
+def check_material(nodes: list[SurfaceNode]) -> list[str]:
+    """Sanitise every node in place; the warnings of all of them, plus one if the material may
+    exceed MAX_CLOSURES (the extra closures would be dropped, as Cycles drops them)."""
+    warnings = []
+    for node in nodes:
+        warnings += node.sanitize()
+    bound = sum(closure_count_bound(n) for n in nodes if n.weight != 0.0)
+    if bound > MAX_CLOSURES:
+        warnings.append(f"{len(nodes)} BSDF nodes may expand into {bound} closures, more than the {MAX_CLOSURES} "
+                        "a hit holds: the last ones are dropped")
+    return warnings
 
 
 # ---------------------------------------------------------------------------------------------
