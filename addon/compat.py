@@ -22,6 +22,15 @@ _PRINCIPLED_SOCKETS = {
     "sheen": ("Sheen Weight", "Sheen"),
     "subsurface": ("Subsurface Weight", "Subsurface"),
     "alpha": ("Alpha",),
+    "roughness": ("Roughness",),
+    "ior": ("IOR",),
+    "diffuse_roughness": ("Diffuse Roughness",),
+    "specular_tint": ("Specular Tint",),
+    "coat_roughness": ("Coat Roughness", "Clearcoat Roughness"),
+    "coat_ior": ("Coat IOR",),
+    "coat_tint": ("Coat Tint",),
+    "sheen_roughness": ("Sheen Roughness",),
+    "sheen_tint": ("Sheen Tint",),
 }
 
 # Blender's own engines whose properties panels VolPath reuses (EEVEE's id changed in 4.2 and 5.0).
@@ -55,15 +64,44 @@ def world_node_tree(world):
     return world.node_tree if world.use_nodes else None
 
 
-def corner_normals(mesh) -> np.ndarray:
-    """(loops, 3) float32 shading normals per face corner (smooth, sharp edges, custom normals)."""
+def corner_normals(mesh, smooth: np.ndarray) -> np.ndarray:
+    """(loops, 3) float32 shading normals per face corner as Cycles syncs them.
+
+    Cycles 5.0 (intern/cycles/blender/mesh.cpp) asks Blender for `normals_domain(true)`: a mesh
+    without custom normals or sharp edges whose faces mix flat and smooth is in the *point*
+    domain there, so its smooth faces use the vertex normals (averaged over every face, flat ones
+    too) and its flat faces the face normal; only otherwise does it use Blender's corner normals,
+    which split the normals at flat faces (what bpy's Mesh.corner_normals returns for such a
+    mesh, whose RNA normals_domain says CORNER). smooth: per-face use_smooth."""
     out = np.empty(len(mesh.loops) * 3, dtype=np.float32)
-    if hasattr(mesh, "corner_normals"):  # Blender 4.1+
-        mesh.corner_normals.foreach_get("vector", out)
-    else:  # Blender < 4.1: split normals must be computed first
+    if not hasattr(mesh, "corner_normals"):  # Blender < 4.1: split normals must be computed first
         mesh.calc_normals_split()
         mesh.loops.foreach_get("normal", out)
-    return out.reshape(-1, 3)
+        return out.reshape(-1, 3)
+    sharp_edges = mesh.attributes.get("sharp_edge")
+    any_sharp_edge = False
+    if sharp_edges is not None and sharp_edges.domain == "EDGE" and len(mesh.edges):
+        flags = np.empty(len(mesh.edges), dtype=bool)
+        sharp_edges.data.foreach_get("value", flags)
+        any_sharp_edge = bool(flags.any())
+    if mesh.has_custom_normals or any_sharp_edge or smooth.all() or not smooth.any():
+        mesh.corner_normals.foreach_get("vector", out)
+        return out.reshape(-1, 3)
+    vertex_normals = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("normal", vertex_normals)
+    corner_vertices = np.empty(len(mesh.loops), dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", corner_vertices)
+    normals = vertex_normals.reshape(-1, 3)[corner_vertices]
+    face_normals = np.empty(len(mesh.polygons) * 3, dtype=np.float32)
+    mesh.polygons.foreach_get("normal", face_normals)
+    starts = np.empty(len(mesh.polygons), dtype=np.int32)
+    counts = np.empty(len(mesh.polygons), dtype=np.int32)
+    mesh.polygons.foreach_get("loop_start", starts)
+    mesh.polygons.foreach_get("loop_total", counts)
+    corner_face = np.repeat(np.arange(len(mesh.polygons)), counts)
+    flat = ~smooth[corner_face]
+    normals[flat] = face_normals.reshape(-1, 3)[corner_face[flat]]
+    return normals
 
 
 def light_color_factor(light) -> np.ndarray:

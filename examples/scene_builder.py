@@ -2,8 +2,9 @@
 
 Every example script builds its scene into a fresh, empty Blender file with these helpers so the
 scenes share one camera/box/material vocabulary. Materials use the nodes whose Cycles conversion
-VolPath implements: Diffuse BSDF (roughness 0 = Lambertian), Emission, Principled Volume,
-Volume Scatter and Volume Absorption. Lights have radius 0 unless stated, which makes Cycles'
+VolPath implements: Diffuse BSDF (roughness 0 = Lambertian), Principled BSDF and the other BSDF
+nodes (bsdf_material), Emission, Principled Volume, Volume Scatter and Volume Absorption. Filter
+Glossy is 0 (VolPath does not blur glossy paths; README). Lights have radius 0 unless stated, which makes Cycles'
 point/spot lights true point sources (no soft falloff ambiguity).
 """
 from __future__ import annotations
@@ -36,6 +37,7 @@ def new_scene(resolution: Sequence[int] = (64, 64), samples: int = 64, seed: int
     scene.render.image_settings.file_format = "OPEN_EXR"
     scene.render.image_settings.color_depth = "32"
     set_samples_and_bounces(scene, samples, seed, bounces or DEFAULT_BOUNCES)
+    scene.cycles.blur_glossy = 0.0
     world = bpy.data.worlds.new("World")
     scene.world = world
     set_world_background(scene, (0.0, 0.0, 0.0), 0.0)
@@ -121,6 +123,36 @@ def diffuse_material(name: str, color) -> bpy.types.Material:
     return mat
 
 
+def _set_inputs(node, inputs: dict) -> None:
+    """Node inputs by socket name; RGB triples get alpha 1; 'distribution' etc. are node properties."""
+    for key, value in inputs.items():
+        if key in ("distribution", "fresnel_type"):
+            setattr(node, key, value)
+            continue
+        socket = node.inputs[key]
+        if isinstance(value, (tuple, list)) and len(value) == 3 and len(socket.default_value) == 4:
+            value = (*value, 1.0)
+        socket.default_value = value
+
+
+def bsdf_material(name: str, node_type: str = "ShaderNodeBsdfPrincipled", volume=None,
+                  **inputs) -> bpy.types.Material:
+    """A material with one BSDF node (Principled by default) set from `inputs` (socket names with
+    spaces replaced by underscores, e.g. Base_Color=(1, 0, 0), Roughness=0.2), and optionally a
+    volume node (a (node type, inputs) pair) on the Volume output: glass containing a liquid."""
+    mat, nodes, links, output = _material(name)
+    bsdf = nodes.new(node_type)
+    _set_inputs(bsdf, {k.replace("_", " ") if k not in ("distribution", "fresnel_type") else k: v
+                       for k, v in inputs.items()})
+    links.new(bsdf.outputs[0], output.inputs["Surface"])
+    if volume is not None:
+        volume_type, volume_inputs = volume
+        vol = nodes.new(volume_type)
+        _set_inputs(vol, volume_inputs)
+        links.new(vol.outputs[0], output.inputs["Volume"])
+    return mat
+
+
 def emission_material(name: str, color, strength: float) -> bpy.types.Material:
     mat, nodes, links, output = _material(name)
     emit = nodes.new("ShaderNodeEmission")
@@ -200,6 +232,46 @@ def box_vertices(center, size):
 def add_box(scene, name: str, center, size, material) -> bpy.types.Object:
     """A closed box with outward normals (a valid medium boundary)."""
     return add_mesh(scene, name, box_vertices(center, size), _BOX_FACES, material)
+
+
+def add_uv_sphere(scene, name: str, center, radius: float, material, segments: int = 32, rings: int = 16,
+                  smooth: bool = True) -> bpy.types.Object:
+    """A closed UV sphere (outward normals), smooth-shaded by default."""
+    cx, cy, cz = center
+    vertices = [(cx, cy, cz + radius)]
+    for i in range(1, rings):
+        theta = math.pi * i / rings
+        for j in range(segments):
+            phi = 2.0 * math.pi * j / segments
+            vertices.append((cx + radius * math.sin(theta) * math.cos(phi),
+                             cy + radius * math.sin(theta) * math.sin(phi), cz + radius * math.cos(theta)))
+    vertices.append((cx, cy, cz - radius))
+    bottom = len(vertices) - 1
+    faces = [(0, 1 + j, 1 + (j + 1) % segments) for j in range(segments)]
+    for i in range(rings - 2):
+        a, b = 1 + i * segments, 1 + (i + 1) * segments
+        faces += [(a + j, b + j, b + (j + 1) % segments, a + (j + 1) % segments) for j in range(segments)]
+    last = 1 + (rings - 2) * segments
+    faces += [(last + j, bottom, last + (j + 1) % segments) for j in range(segments)]
+    obj = add_mesh(scene, name, vertices, faces, material)
+    for polygon in obj.data.polygons:
+        polygon.use_smooth = smooth
+    return obj
+
+
+def add_cylinder(scene, name: str, base_center, radius: float, height: float, material, segments: int = 32,
+                 smooth: bool = True) -> bpy.types.Object:
+    """A closed cylinder along +Z (outward normals); the side smooth-shaded, the caps flat."""
+    cx, cy, cz = base_center
+    ring = [(math.cos(2 * math.pi * j / segments), math.sin(2 * math.pi * j / segments)) for j in range(segments)]
+    vertices = [(cx + radius * x, cy + radius * y, cz) for x, y in ring]
+    vertices += [(cx + radius * x, cy + radius * y, cz + height) for x, y in ring]
+    sides = [(j, (j + 1) % segments, segments + (j + 1) % segments, segments + j) for j in range(segments)]
+    caps = [tuple(reversed(range(segments))), tuple(range(segments, 2 * segments))]
+    obj = add_mesh(scene, name, vertices, sides + caps, material)
+    for polygon in obj.data.polygons[:segments]:
+        polygon.use_smooth = smooth
+    return obj
 
 
 def add_quad(scene, name: str, corners, material) -> bpy.types.Object:

@@ -1,7 +1,7 @@
 """Render a Blender scene with Cycles under settings matched to VolPath's, then restore the user's.
 
 Matched means: CPU, no denoising, no adaptive sampling, no clamping, no light-threshold
-termination, no path guiding, the bounce limits of VolPath's RenderSettings, the same resolution,
+termination, no path guiding, Filter Glossy 0, the bounce limits of VolPath's RenderSettings, the same resolution,
 camera and pixel filter (both engines read them from the same .blend), unbiased volume rendering
 (Cycles 5.0's default null-scattering path, `volume_biased` off) and scene-linear float output.
 Each run is written to an uncompressed 32-bit EXR in a scratch folder and read back.
@@ -98,6 +98,8 @@ def matched_settings(scene, bounces: BounceLimits, resolution: Optional[tuple] =
         snapshot.set(cycles, "use_sample_subset", False)
         # Cycles 5.0: unbiased null-scattering volumes (True would be ray marching, biased).
         snapshot.set(cycles, "volume_biased", False)
+        # VolPath does not blur glossy closures after rough bounces (Filter Glossy = 0; README).
+        snapshot.set(cycles, "blur_glossy", 0.0)
         snapshot.set(cycles, "min_light_bounces", 0)
         snapshot.set(cycles, "min_transparent_bounces", 0)
         snapshot.set(cycles, "max_bounces", bounces.max_bounces)

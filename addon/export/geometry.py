@@ -48,10 +48,10 @@ def triangulate(obj) -> Optional[LocalMesh]:
         mesh.polygons.foreach_get("use_smooth", smooth)
         corner_normals = None
         if smooth.any() or mesh.has_custom_normals:
-            # Corner normals already hold the face normal on flat faces and sharp edges.
+            # Corner normals hold the face normal on flat faces (and sharp edges where Cycles splits).
             loops = np.empty(n_tri * 3, dtype=np.int32)
             mesh.loop_triangles.foreach_get("loops", loops)
-            corner_normals = compat.corner_normals(mesh)[loops].reshape(n_tri, 3, 3)
+            corner_normals = compat.corner_normals(mesh, smooth)[loops].reshape(n_tri, 3, 3)
         return LocalMesh(vertices.reshape(-1, 3), triangles.reshape(-1, 3), material_slots, corner_normals)
     finally:
         obj.to_mesh_clear()

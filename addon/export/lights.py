@@ -43,8 +43,8 @@ def _node_factor(light, name: str, reporter) -> np.ndarray:
         return np.zeros(3)
     reader = shading.NodeReader(f"light '{name}'", reporter)
     before = len(reporter.messages)
-    surface = shading.surface_from(reader, output.inputs["Surface"])
-    if len(reporter.messages) > before or np.any(surface.albedo > 0):
+    surface = shading.surface_terms(reader, shading._shader_node, output.inputs["Surface"])
+    if len(reporter.messages) > before or surface.nodes:
         reporter.warn(f"light '{name}': its node tree is not fully supported; rendered without it "
                       "(colour x power only)")
         return np.ones(3)

@@ -4,16 +4,15 @@ The node trees are read, not executed: the closures VolPath supports combine lin
 Mix Shader with a constant factor), so a tree reduces to sums of weighted terms.
 
 Supported, with Cycles' meaning (intern/cycles/kernel/svm/closure.h):
-- Surface: Diffuse BSDF, Principled BSDF (see _principled), Emission, Add / Mix Shader; a
-  Transparent BSDF feeding the output directly is an invisible (null) surface.
+- Surface: the BSDF nodes of surfaces.py (Principled, Glossy, Glass, ...), Emission, Add / Mix
+  Shader; a white Transparent BSDF feeding the output directly is an invisible (null) surface.
 - Volume: Principled Volume, Volume Scatter (Henyey-Greenstein), Volume Absorption, Volume
   Coefficients (5.0), Emission, Add / Mix Shader.
 - World: Background colour x strength, and the Volume output.
 Documented fallbacks (each one reported as a warning naming the material and the node):
 - a linked input (texture, attribute...) uses the socket's own unlinked value; RGB and Value nodes
   feeding an input are read as the constants they are;
-- an unsupported surface node renders as a 0.8 grey diffuse (the diffuse layer of Cycles'
-  default surface);
+- an unsupported surface node renders as a 0.8 grey diffuse (surfaces.py);
 - an unsupported volume node contributes no medium.
 """
 from __future__ import annotations
@@ -25,11 +24,11 @@ import numpy as np
 import volpath_native as vp
 from volpath_native.grid_medium import blackbody_emission
 
-from .. import compat
+from volpath_native.bsdfs.nodes import SurfaceNode
 
-# Cycles' surface for objects without a material is a default Principled BSDF (scene/shader.cpp
-# ShaderManager::add_default), base colour 0.8: VolPath renders its diffuse layer.
-DEFAULT_ALBEDO = 0.8
+from .. import compat
+from .surfaces import surface_terms
+
 # Cycles clamps Henyey-Greenstein's g to +-(1 - 1e-3) (kernel/closure/volume_henyey_greenstein.h).
 HG_G_LIMIT = 1.0 - 1e-3
 
@@ -112,70 +111,6 @@ def _as_value(default_value):
 
 def _mix_factor(reader: NodeReader, node) -> float:
     return float(np.clip(reader.scalar(node, node.inputs[0]), 0.0, 1.0))
-
-
-# ----------------------------------------------------------------------------------------------
-# Surfaces
-# ----------------------------------------------------------------------------------------------
-@dataclass
-class _Surface:
-    albedo: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
-
-    def scaled(self, w: float) -> "_Surface":
-        return _Surface(self.albedo * w, self.emission * w)
-
-    def __add__(self, other: "_Surface") -> "_Surface":
-        return _Surface(self.albedo + other.albedo, self.emission + other.emission)
-
-
-def surface_from(reader: NodeReader, socket) -> _Surface:
-    """The surface closure feeding `socket` (a shader socket); black if nothing is connected."""
-    node = _shader_node(socket)
-    if node is None:
-        return _Surface()
-    kind = node.type
-    if kind == "BSDF_DIFFUSE":
-        roughness = reader.scalar(node, "Roughness")
-        if roughness > 0.0:
-            reader.warn(node, f"Oren-Nayar roughness {roughness:g} is rendered as Lambertian (roughness 0)")
-        return _Surface(albedo=np.clip(reader.rgb(node, "Color"), 0.0, None))
-    if kind == "BSDF_PRINCIPLED":
-        return _principled(reader, node)
-    if kind == "EMISSION":
-        # Emission closure radiance = colour x strength, both faces (kernel/closure/emissive.h).
-        return _Surface(emission=reader.rgb(node, "Color") * reader.scalar(node, "Strength"))
-    if kind == "ADD_SHADER":
-        return surface_from(reader, node.inputs[0]) + surface_from(reader, node.inputs[1])
-    if kind == "MIX_SHADER":
-        f = _mix_factor(reader, node)
-        return (surface_from(reader, node.inputs[1]).scaled(1.0 - f)
-                + surface_from(reader, node.inputs[2]).scaled(f))
-    reader.warn(node, f"unsupported surface shader; rendered as a {DEFAULT_ALBEDO} grey diffuse surface")
-    return _Surface(albedo=np.full(3, DEFAULT_ALBEDO))
-
-
-def _principled(reader: NodeReader, node) -> _Surface:
-    """Principled BSDF as its diffuse layer: Base Color (clamped to [0, 1] as Cycles does,
-    svm/closure.h) x (1 - Metallic) x (1 - Transmission), plus Emission Color x Strength
-    (svm/closure.h principled_bsdf_emission). Specular, metal, glass, coat, sheen and subsurface
-    are not rendered: when any of them is active the user is told."""
-    base = np.clip(reader.rgb(node, compat.principled_socket(node, "base_color")), 0.0, 1.0)
-    layers = {}
-    for key in ("metallic", "transmission", "specular", "coat", "sheen", "subsurface"):
-        socket = compat.principled_socket(node, key)
-        layers[key] = reader.scalar(node, socket) if socket is not None else 0.0
-    active = [k for k, v in layers.items() if v > 0.0]
-    if active:
-        reader.warn(node, "Principled BSDF is rendered as its diffuse layer only; "
-                          f"ignored: {', '.join(active)}")
-    alpha_socket = compat.principled_socket(node, "alpha")
-    if alpha_socket is not None and reader.scalar(node, alpha_socket) < 1.0:
-        reader.warn(node, "Alpha < 1 is not supported; rendered opaque")
-    albedo = base * (1.0 - np.clip(layers["metallic"], 0, 1)) * (1.0 - np.clip(layers["transmission"], 0, 1))
-    emission = (reader.rgb(node, compat.principled_socket(node, "emission_color"))
-                * reader.scalar(node, compat.principled_socket(node, "emission_strength")))
-    return _Surface(albedo=albedo, emission=emission)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -305,9 +240,7 @@ class MaterialTable:
 
     def _convert(self, material) -> vp.Material:
         if material is None:
-            self.reporter.warn("objects without a material: Cycles' default Principled BSDF is rendered "
-                               f"as its diffuse layer ({DEFAULT_ALBEDO} grey; specular ignored)")
-            return vp.Material(name="(no material)", base_color=np.full(3, DEFAULT_ALBEDO))
+            return vp.Material(name="(no material)", surface_nodes=[SurfaceNode(kind="principled")])
         name = material.name_full
         tree = compat.material_node_tree(material)
         if tree is None:  # not node-based (Blender < 5): Cycles uses the viewport diffuse colour
@@ -330,17 +263,15 @@ class MaterialTable:
             # kernel/integrator/surface_shader.h makes such surfaces fully transparent).
             return vp.Material(name=name, surface="null", base_color=np.zeros(3), medium=medium)
         source = _source_socket(surface_socket)
-        if source is not None and source.node.type == "BSDF_TRANSPARENT" and not source.node.mute:
-            # A white Transparent BSDF lets every ray through unchanged: VolPath's null surface.
-            color = reader.rgb(source.node, "Color")
-            if not np.allclose(color, 1.0):
-                reader.warn(source.node, f"tinted transparency {np.round(color, 3).tolist()} is not "
-                                         "supported; rendered fully transparent")
+        if (source is not None and source.node.type == "BSDF_TRANSPARENT" and not source.node.mute
+                and np.all(reader.rgb(source.node, "Color") == 1.0)):
+            # A white Transparent BSDF alone lets every ray through unchanged: VolPath's null
+            # surface (it does not count against the transparent bounce limit; README).
             return vp.Material(name=name, surface="null", base_color=np.zeros(3), medium=medium)
         # Nothing connected to Surface (and no volume) is an opaque black surface in Cycles.
-        surface = surface_from(reader, surface_socket)
-        return vp.Material(name=name, surface="diffuse", base_color=surface.albedo,
-                           emission=surface.emission, medium=medium)
+        surface = surface_terms(reader, _shader_node, surface_socket)
+        return vp.Material(name=name, surface="diffuse", base_color=np.zeros(3), emission=surface.emission,
+                           medium=medium, surface_nodes=surface.nodes)
 
 
 def export_world(world, table: MaterialTable) -> vp.World:

@@ -16,6 +16,9 @@ import numpy as np
 
 from . import path_kernels as pk
 from .accel import Accelerator
+from .bsdfs import bsdf_tables
+from .bsdfs.closures import new_closure_buffer
+from .bsdfs.nodes import surface_node_table
 from .camera import CameraModel, crop_window
 from .film import PixelFilter
 from .grid_medium import GridMedium
@@ -35,7 +38,7 @@ def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable) -> pk.Scen
     mats = scene.materials
     ids = accel.material_ids
     mat_null = np.array([m.surface == "null" for m in mats], dtype=bool)
-    mat_albedo = np.array([m.base_color for m in mats], dtype=np.float64).reshape(-1, 3)
+    mat_transparent = np.array([_may_pass_shadows(m) for m in mats], dtype=bool)
     mat_emissive = np.array([m.is_emissive and m.surface != "null" for m in mats], dtype=bool)
     n_tri = accel.triangle_count
     has_tris = bool(len(mats)) and n_tri > 0
@@ -61,7 +64,8 @@ def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable) -> pk.Scen
     return pk.SceneTables(
         tri_null=np.ascontiguousarray(mat_null[ids] if has_tris else np.zeros(n_tri, bool)),
         tri_emissive=np.ascontiguousarray(mat_emissive[ids] if has_tris else np.zeros(n_tri, bool)),
-        tri_albedo=np.ascontiguousarray(mat_albedo[ids] if has_tris else np.zeros((n_tri, 3))),
+        tri_material=np.ascontiguousarray(ids if has_tris else np.zeros(n_tri), dtype=np.int32),
+        tri_transparent=np.ascontiguousarray(mat_transparent[ids] if has_tris else np.zeros(n_tri, bool)),
         normals=np.ascontiguousarray(accel.normals, dtype=np.float64),
         corner_normals=np.ascontiguousarray(accel.corner_normals if accel.has_smooth else np.zeros((0, 3, 3))),
         has_smooth=bool(accel.has_smooth),
@@ -74,8 +78,17 @@ def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable) -> pk.Scen
         phase_g=phase_g, vol_lobe_sigma=lobe_sigma, world_lobe_sigma=world_lobe,
         mixed_phase=bool(media.mixed_phase), epsilon=float(accel.epsilon), any_medium=bool(media.any_medium),
         max_bounces=int(st.max_bounces), diffuse_bounces=int(st.diffuse_bounces),
-        volume_bounces=int(st.volume_bounces), rr_min_bounces=int(st.russian_roulette_min_bounces),
+        volume_bounces=int(st.volume_bounces), glossy_bounces=int(st.glossy_bounces),
+        transmission_bounces=int(st.transmission_bounces), transparent_bounces=int(st.transparent_bounces),
+        rr_min_bounces=int(st.russian_roulette_min_bounces),
         volume_sampling=pk.VOLUME_SAMPLING[st.volume_sampling])
+
+
+def _may_pass_shadows(material) -> bool:
+    """Whether shadow rays may pass the material's surface (Transparent BSDF, Principled alpha < 1:
+    Cycles' closure_transparent_extinction); glass does not (Cycles 5.0)."""
+    return any(node.weight > 0 and (node.kind == "transparent" or (node.kind == "principled" and node.alpha < 1))
+               for node in material.bsdf_nodes())
 
 
 class Integrator:
@@ -91,8 +104,11 @@ class Integrator:
         self.filter = PixelFilter(scene.film)
         self.crop = crop_window(scene.film)
         self.tables = scene_tables(scene, self.accel, self.media)
+        self.surface_nodes = surface_node_table([m.bsdf_nodes() for m in scene.materials])
+        self.bsdf_tables = bsdf_tables()
         self.grids = [grid for _, grid in self.media.grid_volumes]
-        self.has_null = bool(self.tables.tri_null.any())
+        # shadow rays step through null boundaries and transparent surfaces (closest hits)
+        self.has_null = bool(self.tables.tri_null.any() or self.tables.tri_transparent.any())
         self.warnings = self.lights.warnings + self.media.warnings
         # Paths start in the camera's volume stack (Cycles volume_stack_init); orthographic rays
         # start from different points, each with its own stack.
@@ -146,9 +162,10 @@ class Integrator:
                 raise Cancelled()
             hits = self.accel.intersect_raw(o32[:n], d32[:n], t32[:n])
             stats["rays"] += n
-            m = pk.shade(self.tables, self.lights.tables, grid_tables, n, iteration, F, I, K, C, hits.t,
+            m = pk.shade(self.tables, self.lights.tables, grid_tables, self.surface_nodes, self.bsdf_tables,
+                         buffers.closures, n, iteration, F, I, K, C, hits.t,
                          hits.prim, hits.u, hits.v, L, alive, Q, counter, o32, d32, t32)
-            self._trace_shadows(grid_tables, Q, m, margin, L, stats, iteration)
+            self._trace_shadows(grid_tables, buffers.closures, Q, m, margin, L, stats, iteration)
             n = pk.compact(F, I, K, C, n, alive, o32, d32, t32)
             iteration += 1
         stats["vertices"] = int(counter[0])
@@ -156,7 +173,7 @@ class Integrator:
             grid.check_flags(tables)
         return L, stats
 
-    def _trace_shadows(self, grid_tables, Q, m, margin, L, stats, iteration):
+    def _trace_shadows(self, grid_tables, closures, Q, m, margin, L, stats, iteration):
         """Transmittance of queued shadow rays, added to L where the light is reached."""
         if not m:
             return
@@ -170,7 +187,8 @@ class Integrator:
                 return
             hits = self.accel.intersect_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m])
             stats["shadow_rays"] += m
-            m = pk.shadow_step(self.tables, grid_tables, Q, m, hits.t, hits.prim, margin, L, iteration, step)
+            m = pk.shadow_step(self.tables, grid_tables, self.surface_nodes, self.bsdf_tables, closures, Q, m,
+                               hits.t, hits.prim, margin, L, iteration, step)
         # rays still crossing boundaries after the limit count as blocked (Cycles VOLUME_BOUNDS_MAX)
 
 
@@ -187,6 +205,7 @@ class _Buffers:
         self.o32, self.d32 = np.empty((capacity, 3), np.float32), np.empty((capacity, 3), np.float32)
         self.t32 = np.empty(capacity, np.float32)
         self.alive = np.empty(capacity, bool)
+        self.closures = new_closure_buffer()  # the lobes of the surface being shaded
         # up to two shadow rays per path and iteration (medium NEE + surface NEE)
         q = 2 * capacity
         self.queue = pk.ShadowQueue(np.empty((q, pk.NSF)), np.empty((q, pk.NSI), np.int64), np.empty(q, np.uint64),

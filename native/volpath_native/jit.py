@@ -9,9 +9,9 @@ stage as a compiled ParallelFor over its queue.
 - cache=True: compiled machine code is kept on disk, so only the first render after an install
   or change pays for compilation. numba invalidates a cached function only when its own file
   changes, not when a function it calls from another module does, so the cache lives in a folder
-  named after a hash of all this package's sources: any edit starts a fresh cache. The folder's
-  parent is NUMBA_CACHE_DIR if set (the Blender add-on points it at Blender's user folders), else
-  ~/.cache/volpath/numba.
+  named after a hash of all this package's sources, sub-packages and .npy tables included: any
+  edit starts a fresh cache. The folder's parent is NUMBA_CACHE_DIR if set (the Blender add-on
+  points it at Blender's user folders), else ~/.cache/volpath/numba.
 - nogil=True: kernels release the GIL, so render threads run them in parallel.
 - error_model="numpy": division by zero gives inf/nan like numpy instead of raising, and no
   per-division checks slow the loops; kernels guard their divisions explicitly.
@@ -27,8 +27,10 @@ import numba
 
 def _cache_dir() -> str:
     sources = hashlib.sha1()
-    for path in sorted(Path(__file__).parent.glob("*.py")):
-        sources.update(path.name.encode())
+    package = Path(__file__).parent
+    # sub-packages too (bsdfs/), and the data files compiled code may depend on
+    for path in sorted(p for p in package.rglob("*") if p.suffix in (".py", ".npy") and "__pycache__" not in p.parts):
+        sources.update(path.relative_to(package).as_posix().encode())
         sources.update(path.read_bytes())
     base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "volpath", "numba")
     return os.path.join(base, f"{numba.__version__}-{sources.hexdigest()[:16]}")

@@ -28,7 +28,8 @@ from collections import namedtuple
 
 import numpy as np
 
-from .bsdf import lambert_eval1, lambert_sample1
+from .bsdfs.closures import (LABEL_DIFFUSE, LABEL_TRANSMIT, LABEL_TRANSPARENT, setup_surface,
+                             surface_eval, surface_sample, surface_transparency)
 from .camera import camera_ray1
 from .film import filter_offset1
 from .grid_kernels import STREAM_DIMENSIONS, grid_free_flight, grid_scattering, grid_transmittance
@@ -47,9 +48,10 @@ O, D, BETA, PREV = 0, 3, 6, 9
 TMAX, PREV_PDF, TRAVELLED, LEAD = 12, 13, 14, 15
 SS, ST, EM, G = 16, 19, 22, 25
 NF = 26
-# I columns
-PID, BOUNCE, DIFFUSE, VOLUME, BOUNDS, TAT = range(6)
-NI = 6
+# I columns: path id, bounce counters (Cycles' path_state: total, diffuse, volume, glossy,
+# transmission, transparent), null-boundary crossings, "terminate after transparent"
+PID, BOUNCE, DIFFUSE, VOLUME, BOUNDS, TAT, GLOSSY, TRANSMISSION, TRANSPARENT = range(9)
+NI = 9
 # shadow queue SF columns; SI columns: path id, purpose (which NEE queued it); SK: path key
 S_O, S_D, S_REMAINING, S_CONTRIB, S_ST, S_LEAD = 0, 3, 6, 7, 10, 13
 NSF = 14
@@ -63,7 +65,7 @@ _MAX_STEPS, _MAX_GRIDS = 64, 16
 
 # Random dimensions within one iteration (see sampling.CAMERA_DIMS).
 D_CHANNEL, D_DISTANCE, D_MED_SELECT, D_MED_TECH, D_MED_T, D_MED_CHANNEL, D_MED_LU, D_MED_LV, \
-    D_PHASE_U, D_PHASE_V, D_RR, D_SURF_SELECT, D_SURF_LU, D_SURF_LV, D_BSDF_U, D_BSDF_V = range(16)
+    D_PHASE_U, D_PHASE_V, D_RR, D_SURF_SELECT, D_SURF_LU, D_SURF_LV, D_BSDF_U, D_BSDF_V, D_SURF_PICK = range(17)
 
 MAX_VOLUME_BOUNDS = 1024  # Cycles' VOLUME_BOUNDS_MAX: null crossings are not transparent bounces
 VOLUME_SAMPLING = {"mis": 0, "distance": 1, "equiangular": 2}
@@ -72,12 +74,13 @@ ShadowQueue = namedtuple("ShadowQueue", ["F", "I", "K", "C", "o32", "d32", "t32"
 
 # Everything the stages read about the scene (built once per scene by integrator.py).
 SceneTables = namedtuple("SceneTables", [
-    "tri_null", "tri_emissive", "tri_albedo", "normals", "corner_normals", "has_smooth", "tri_volume",
+    "tri_null", "tri_emissive", "tri_material", "tri_transparent", "normals", "corner_normals", "has_smooth", "tri_volume",
     "vol_sigma_s", "vol_sigma_a", "vol_emission", "vol_g", "vol_is_grid",
     "world_sigma_s", "world_sigma_a", "world_emission", "world_g",
     "phase_g", "vol_lobe_sigma", "world_lobe_sigma", "mixed_phase",
     "vol_grid", "has_grids",
-    "epsilon", "any_medium", "max_bounces", "diffuse_bounces", "volume_bounces", "rr_min_bounces",
+    "epsilon", "any_medium", "max_bounces", "diffuse_bounces", "volume_bounces", "glossy_bounces",
+    "transmission_bounces", "transparent_bounces", "rr_min_bounces",
     "volume_sampling"])
 
 
@@ -347,7 +350,8 @@ def _push_shadow(Q, C, K, p, n_shadow, origin, wi, dist, contrib, sigma_t, margi
 def _scatter_to(S, F, I, p, x, wo, pdf, kind, kind_limit):
     """Start path p's next segment at scattering vertex x toward wo (sampled with pdf). The bounce
     counters grow as in Cycles' path_state_next; past a limit the path is "terminate after
-    transparent". kind: the I column counting this kind of bounce (VOLUME or DIFFUSE)."""
+    transparent". kind: the I column counting this kind of bounce (VOLUME, DIFFUSE, GLOSSY or
+    TRANSMISSION)."""
     _set3(F, p, O, x)
     _set3(F, p, D, wo)
     _set3(F, p, PREV, x)
@@ -379,9 +383,11 @@ def _russian_roulette(S, F, I, K, p, iteration):
 # The path stage: everything between a closest-hit query and the next one
 # ---------------------------------------------------------------------------------------------
 @stage_kernel
-def shade(S, T, GR, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, alive, Q, stats, o32, d32, t32):
+def shade(S, T, GR, SN, BT, CB, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, alive, Q, stats,
+          o32, d32, t32):
     """Advance paths 0..n-1 by one segment: medium (emission, NEE, free flight), lamps crossed,
-    escape, volume scattering or surface interaction. Shadow rays go to the queue Q; returns its
+    escape, volume scattering or surface interaction (SN: the materials' BSDF nodes, BT: BSDF
+    lookup tables, CB: this thread's closure scratch). Shadow rays go to the queue Q; returns its
     length. The next rays of live paths are written to o32, d32, t32. stats: [vertices]
     accumulated."""
     eps = S.epsilon
@@ -509,8 +515,8 @@ def shade(S, T, GR, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, 
             _scatter_to(S, F, I, p, x, wo, pdf, VOLUME, S.volume_bounces)
             alive[p] = _russian_roulette(S, F, I, K, p, iteration)
         else:
-            alive[p], n_shadow = _surface(S, T, F, I, K, C, p, iteration, prim, hit_t[p], hit_u[p], hit_v[p],
-                                          L, Q, n_shadow, margin, stats)
+            alive[p], n_shadow = _surface(S, T, SN, BT, CB, F, I, K, C, p, iteration, prim, hit_t[p], hit_u[p],
+                                          hit_v[p], L, Q, n_shadow, margin, stats)
         if alive[p]:
             alive[p] = F[p, BETA] > 0.0 or F[p, BETA + 1] > 0.0 or F[p, BETA + 2] > 0.0
         if alive[p]:
@@ -574,23 +580,48 @@ def _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q,
 
 
 @inline_stage_kernel
-def _surface(S, T, F, I, K, C, p, iteration, prim, t, hu, hv, L, Q, n_shadow, margin, stats):
-    """Shade a surface hit; returns (continues, shadow queue length)."""
+def _advance_through(S, F, I, C, p, prim, front, t, d):
+    """Move path p just past the surface it hit at distance t, keeping its direction (null
+    boundaries and transparent surfaces); the volume stack follows the crossing."""
+    cross_boundary(S, C, p, prim, front)
+    if S.any_medium:
+        stack_coefficients(S, C, p, F)
+    step = t + S.epsilon
+    for c in range(3):
+        F[p, O + c] += d[c] * step
+    F[p, LEAD] = S.epsilon
+    F[p, TRAVELLED] += step
+    F[p, TMAX] -= step
+
+
+@inline_stage_kernel
+def _shading_normal(S, prim, hu, hv, n_face):
+    """Interpolated (smooth) normal at barycentrics (hu, hv), flipped to n_face's side."""
+    if not S.has_smooth:
+        return n_face
+    w0 = 1.0 - hu - hv
+    cn = S.corner_normals
+    sx = cn[prim, 0, 0] * w0 + cn[prim, 1, 0] * hu + cn[prim, 2, 0] * hv
+    sy = cn[prim, 0, 1] * w0 + cn[prim, 1, 1] * hu + cn[prim, 2, 1] * hv
+    sz = cn[prim, 0, 2] * w0 + cn[prim, 1, 2] * hu + cn[prim, 2, 2] * hv
+    length = max(np.sqrt(sx * sx + sy * sy + sz * sz), 1e-30)
+    flip = -1.0 if (sx * n_face[0] + sy * n_face[1] + sz * n_face[2]) < 0.0 else 1.0
+    return sx / length * flip, sy / length * flip, sz / length * flip
+
+
+@inline_stage_kernel
+def _surface(S, T, SN, BT, CB, F, I, K, C, p, iteration, prim, t, hu, hv, L, Q, n_shadow, margin, stats):
+    """Shade a surface hit with its material's closures (bsdfs.closures); returns (continues,
+    shadow queue length). Cycles kernel/integrator/shade_surface.h: emission, light sampling
+    with MIS, BSDF sampling; a transmission enters/leaves the material's volume
+    (volume_stack_enter_exit), a transparent sample continues straight."""
     eps = S.epsilon
     d = _get3(F, p, D)
     ng = (S.normals[prim, 0], S.normals[prim, 1], S.normals[prim, 2])
     front = _dot3(d, ng) < 0.0
     if S.tri_null[prim]:
         # null boundary: cross it, update the volume stack, keep the direction
-        cross_boundary(S, C, p, prim, front)
-        if S.any_medium:
-            stack_coefficients(S, C, p, F)
-        step = t + eps
-        for c in range(3):
-            F[p, O + c] += d[c] * step
-        F[p, LEAD] = eps
-        F[p, TRAVELLED] += step
-        F[p, TMAX] -= step
+        _advance_through(S, F, I, C, p, prim, front, t, d)
         I[p, BOUNDS] += 1
         return I[p, BOUNDS] <= MAX_VOLUME_BOUNDS, n_shadow
     stats[0] += 1
@@ -603,40 +634,58 @@ def _surface(S, T, F, I, K, C, p, iteration, prim, t, hu, hv, L, Q, n_shadow, ma
         r0, r1, r2, lpdf = triangle_emission(T, prim, prev[0], prev[1], prev[2], d[0], d[1], d[2],
                                              F[p, TRAVELLED] + t, front)
         _add_radiance(L, pid, _scale3(_mul3(beta, (r0, r1, r2)), mis_weight(F[p, PREV_PDF], lpdf)))
-    # terminate-after-transparent paths end here; black surfaces absorb everything
-    albedo = (S.tri_albedo[prim, 0], S.tri_albedo[prim, 1], S.tri_albedo[prim, 2])
-    if I[p, TAT] != 0 or not _max3(albedo) > 0.0:
+    if I[p, TAT] != 0:  # terminate-after-transparent paths end here
         return False, n_shadow
     sign = 1.0 if front else -1.0
-    n_face = _scale3(ng, sign)
-    origin = (pb[0] + n_face[0] * eps, pb[1] + n_face[1] * eps, pb[2] + n_face[2] * eps)
-    ns = n_face
-    if S.has_smooth:
-        w0 = 1.0 - hu - hv
-        sx = S.corner_normals[prim, 0, 0] * w0 + S.corner_normals[prim, 1, 0] * hu + S.corner_normals[prim, 2, 0] * hv
-        sy = S.corner_normals[prim, 0, 1] * w0 + S.corner_normals[prim, 1, 1] * hu + S.corner_normals[prim, 2, 1] * hv
-        sz = S.corner_normals[prim, 0, 2] * w0 + S.corner_normals[prim, 1, 2] * hu + S.corner_normals[prim, 2, 2] * hv
-        length = max(np.sqrt(sx * sx + sy * sy + sz * sz), 1e-30)
-        flip = -1.0 if (sx * n_face[0] + sy * n_face[1] + sz * n_face[2]) < 0.0 else 1.0
-        ns = (sx / length * flip, sy / length * flip, sz / length * flip)
+    n_face = _scale3(ng, sign)  # geometric normal on the viewer's side
+    ns = _shading_normal(S, prim, hu, hv, n_face)
+    wi_view = (-d[0], -d[1], -d[2])
+    count = setup_surface(SN, BT, S.tri_material[prim], wi_view, ns, n_face, not front, CB)
+    if count == 0:  # black: absorbs everything
+        return False, n_shadow
+    above = (pb[0] + n_face[0] * eps, pb[1] + n_face[1] * eps, pb[2] + n_face[2] * eps)
+    below = (pb[0] - n_face[0] * eps, pb[1] - n_face[1] * eps, pb[2] - n_face[2] * eps)
     if T.count > 0:
         row = select_light(T, _u(K, p, iteration, D_SURF_SELECT))
-        wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, origin[0], origin[1], origin[2],
+        wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, above[0], above[1], above[2],
                                                                _u(K, p, iteration, D_SURF_LU),
                                                                _u(K, p, iteration, D_SURF_LV))
         wi = (wx, wy, wz)
-        f, bsdf_pdf = lambert_eval1(albedo, ns, wi)
-        if _dot3(wi, n_face) > 0.0:
+        f, bsdf_pdf = surface_eval(CB, count, BT, wi_view, wi, ns, n_face)
+        if _max3(f) > 0.0:
             w = power_heuristic(light_pdf, bsdf_pdf) if light_pdf > 0.0 else 1.0
             contrib = _scale3(_mul3(_mul3(beta, f), (v0, v1, v2)), w)
             if _max3(contrib) > 0.0:
-                n_shadow = _push_shadow(Q, C, K, p, n_shadow, origin, wi, dist, contrib,
+                transmits = _dot3(wi, n_face) < 0.0
+                q = n_shadow
+                n_shadow = _push_shadow(Q, C, K, p, n_shadow, below if transmits else above, wi, dist, contrib,
                                         _get3(F, p, ST), margin, pid, P_SHADOW_SURFACE)
-    # continue with a cosine-sampled direction (weight f cos / pdf = albedo)
-    wi, pdf = lambert_sample1(ns, _u(K, p, iteration, D_BSDF_U), _u(K, p, iteration, D_BSDF_V))
-    ok = _dot3(wi, n_face) > 0.0  # smooth normals may dip below the geometric surface
-    _set3(F, p, BETA, _mul3(beta, albedo) if ok else (0.0, 0.0, 0.0))
-    _scatter_to(S, F, I, p, origin, wi, pdf, DIFFUSE, S.diffuse_bounces)
+                if transmits and S.tri_volume[prim] >= 0:  # the shadow ray crosses into / out of the volume
+                    cross_boundary(S, Q.C, q, prim, front)
+                    _set3(Q.F, q, S_ST, stack_sigma_t(S, Q.C, q))
+    wo, weight, pdf, label = surface_sample(CB, count, BT, wi_view, ns, n_face, _u(K, p, iteration, D_SURF_PICK),
+                                            _u(K, p, iteration, D_BSDF_U), _u(K, p, iteration, D_BSDF_V))
+    if label == 0:
+        return False, n_shadow
+    _set3(F, p, BETA, _mul3(beta, weight))
+    if label & LABEL_TRANSPARENT:
+        # straight on, counting only against the transparent limit (path_state_next)
+        _advance_through(S, F, I, C, p, prim, front, t, d)
+        I[p, TRANSPARENT] += 1
+        if I[p, TRANSPARENT] > S.transparent_bounces:
+            I[p, TAT] = 1
+        return True, n_shadow
+    if label & LABEL_TRANSMIT:
+        if S.tri_volume[prim] >= 0:
+            cross_boundary(S, C, p, prim, front)
+            if S.any_medium:
+                stack_coefficients(S, C, p, F)
+        # translucent (TRANSMIT|DIFFUSE) too counts as a transmission bounce in path_state_next
+        _scatter_to(S, F, I, p, below, wo, pdf, TRANSMISSION, S.transmission_bounces)
+    elif label & LABEL_DIFFUSE:
+        _scatter_to(S, F, I, p, above, wo, pdf, DIFFUSE, S.diffuse_bounces)
+    else:
+        _scatter_to(S, F, I, p, above, wo, pdf, GLOSSY, S.glossy_bounces)
     return _russian_roulette(S, F, I, K, p, iteration), n_shadow
 
 
@@ -780,17 +829,19 @@ def shadow_unoccluded(SF, SI, m, blocked, margin, L):
 
 
 @stage_kernel
-def shadow_step(S, GR, Q, m, hit_t, hit_prim, margin, L, iteration, step):
-    """One closest-hit step of shadow rays through null boundaries: attenuate the segment, stop
-    at opaque geometry (T = 0) or at the light (add contrib x T), cross null boundaries (the
-    volume stack and the segment's sigma_t change). Returns how many rays continue (in place at
-    the front of the queue, their rays rewritten)."""
+def shadow_step(S, GR, SN, BT, CB, Q, m, hit_t, hit_prim, margin, L, iteration, step):
+    """One closest-hit step of shadow rays through null boundaries and transparent surfaces:
+    attenuate the segment, stop at opaque geometry (T = 0) or at the light (add contrib x T),
+    cross null boundaries (the volume stack and the segment's sigma_t change) and transparent
+    surfaces (x their transparency, Cycles shade_shadow.h / surface_shader_transparency). Returns
+    how many rays continue (in place at the front of the queue, their rays rewritten)."""
     SF, SI, SK, SC = Q.F, Q.I, Q.K, Q.C
     eps = S.epsilon
     out = 0
     for q in range(m):
         hit = hit_prim[q] >= 0
-        if hit and not S.tri_null[hit_prim[q]]:
+        prim = hit_prim[q] if hit else 0
+        if hit and not (S.tri_null[prim] or S.tri_transparent[prim]):
             continue  # blocked by opaque geometry
         seg = hit_t[q] if hit else SF[q, S_REMAINING]
         length = seg + SF[q, S_LEAD] + (0.0 if hit else margin)
@@ -798,17 +849,26 @@ def shadow_step(S, GR, Q, m, hit_t, hit_prim, margin, L, iteration, step):
         if S.has_grids:
             tr = _mul3(tr, grids_transmittance(S, GR, SC, q, _get3(SF, q, S_O), _get3(SF, q, S_D), seg, SK[q],
                                                grid_stream(iteration, SI[q, SI_PURPOSE], step, 0)))
+        d = _get3(SF, q, S_D)
+        front = False
+        if hit:
+            ng = (S.normals[prim, 0], S.normals[prim, 1], S.normals[prim, 2])
+            front = _dot3(d, ng) < 0.0
+            if not S.tri_null[prim]:
+                n_face = _scale3(ng, 1.0 if front else -1.0)
+                count = setup_surface(SN, BT, S.tri_material[prim], (-d[0], -d[1], -d[2]), n_face, n_face,
+                                      not front, CB)
+                tr = _mul3(tr, surface_transparency(CB, count))
         for c in range(3):
             SF[q, S_CONTRIB + c] *= tr[c]
         if not hit:
             _add_radiance(L, SI[q, SI_PID], _get3(SF, q, S_CONTRIB))
             continue
-        prim = hit_prim[q]
-        front = (SF[q, S_D] * S.normals[prim, 0] + SF[q, S_D + 1] * S.normals[prim, 1]
-                 + SF[q, S_D + 2] * S.normals[prim, 2]) < 0.0
+        if not _max3(_get3(SF, q, S_CONTRIB)) > 0.0:
+            continue  # fully absorbed by a transparent surface
         cross_boundary(S, SC, q, prim, front)
         for c in range(3):
-            SF[q, S_O + c] += SF[q, S_D + c] * (seg + eps)
+            SF[q, S_O + c] += d[c] * (seg + eps)
         SF[q, S_REMAINING] -= seg + eps
         SF[q, S_LEAD] = eps
         _set3(SF, q, S_ST, stack_sigma_t(S, SC, q))

@@ -20,6 +20,8 @@ from typing import Optional, Union
 
 import numpy as np
 
+from .bsdfs.nodes import SurfaceNode
+
 
 class SceneError(ValueError):
     """Input that cannot be rendered; the message names the offending object."""
@@ -146,33 +148,50 @@ class Medium:
 # ----------------------------------------------------------------------------------------------
 # Surfaces
 # ----------------------------------------------------------------------------------------------
-SURFACE_KINDS = ("diffuse", "null")
+SURFACE_KINDS = ("shaded", "null")
 
 
 @dataclass
 class Material:
     """What a triangle is made of.
 
-    surface: 'diffuse' (Lambertian with albedo base_color) or 'null' (no surface at all: an
-        invisible boundary of the interior medium, as a Cycles volume-only material). Further
-        BSDF kinds (glossy, dielectric) extend SURFACE_KINDS without changing this layout.
+    surface: 'shaded' (scattered by the BSDF nodes `surface_nodes`; without nodes, a Lambertian
+        surface of albedo base_color) or 'null' (no surface at all: an invisible boundary of the
+        interior medium, as a Cycles volume-only material). 'diffuse', the name of format 1, is
+        read as 'shaded'.
+    surface_nodes: bsdfs.nodes.SurfaceNode list, each with its mix weight (the exporter's reading
+        of the node tree); the kernel expands them into lobes at each hit as Cycles' SVM does.
     emission: emitted radiance W/(m^2 sr) (RGB) of the surface (mesh light).
     two_sided_emission: Cycles' mesh lights emit from both faces (True, the default).
     medium: index into Scene.media of the medium inside the closed mesh (-1: none). Entered on a
-        front-face hit, left on a back-face hit.
+        front-face hit, left on a back-face hit; for shaded surfaces, on a transmission through
+        the surface (glass containing a liquid: Cycles' volume_stack_enter_exit).
     """
 
     name: str
-    surface: str = "diffuse"
+    surface: str = "shaded"
     base_color: np.ndarray = field(default_factory=lambda: np.full(3, 0.8))
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
     two_sided_emission: bool = True
     medium: int = -1
+    surface_nodes: list = field(default_factory=list)
 
     def __post_init__(self):
+        if self.surface == "diffuse":
+            self.surface = "shaded"
         self.base_color = rgb(self.base_color, f"material '{self.name}' base_color")
         self.emission = rgb(self.emission, f"material '{self.name}' emission")
         self.medium = int(self.medium)
+        self.surface_nodes = [node if isinstance(node, SurfaceNode) else SurfaceNode.from_record(node)
+                              for node in self.surface_nodes]
+
+    def bsdf_nodes(self) -> list:
+        """The nodes that shade this material: surface_nodes, or a Lambertian of base_color."""
+        if self.surface != "shaded":
+            return []
+        if self.surface_nodes:
+            return self.surface_nodes
+        return [SurfaceNode.for_kind("diffuse", color=self.base_color)] if np.any(self.base_color > 0) else []
 
     @property
     def is_emissive(self) -> bool:
@@ -458,6 +477,8 @@ class Scene:
                 raise SceneError(f"material '{material.name}': unknown surface '{material.surface}'")
             if not -1 <= material.medium < n_media:
                 raise SceneError(f"material '{material.name}': medium index {material.medium} out of range")
+            for node in material.surface_nodes:
+                warnings += [f"material '{material.name}': {w}" for w in node.sanitize()]
             if np.any(material.base_color < 0) or np.any(material.emission < 0):
                 warnings.append(f"material '{material.name}': negative colour clamped to 0")
                 material.base_color = np.maximum(material.base_color, 0.0)

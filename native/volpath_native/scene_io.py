@@ -5,7 +5,8 @@ A `.vpscene` file is a numpy `.npz` archive (uncompressed zip) holding
   `{"format": "volpath-scene", "version": FORMAT_VERSION, "camera": {...}, "film": {...},
   "world": {...}, "settings": {...}, "materials": [...], "media": [...], "lights": [...],
   "meshes": [{"name": ..., "smooth": bool}, ...]}`; every object's fields are exactly the
-  dataclass fields of `scene.py` (RGB triples and vectors as JSON lists), and each light carries a
+  dataclass fields of `scene.py` (a material's `surface_nodes` as SurfaceNode.to_record() dicts,
+  additive to version 1) (RGB triples and vectors as JSON lists), and each light carries a
   `"type"`: "point", "spot", "area" or "sun".
 - for mesh i: arrays `mesh{i}.vertices` (V,3 float32), `mesh{i}.triangles` (T,3 int32),
   `mesh{i}.material_ids` (T int32) and, when smooth, `mesh{i}.corner_normals` (T,3,3 float32).
@@ -30,6 +31,10 @@ _LIGHT_NAMES = {cls: name for name, cls in _LIGHT_TYPES.items()}
 
 
 def _jsonable(value):
+    if isinstance(value, sc.SurfaceNode):
+        return _jsonable(value.to_record())
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, (tuple, list)):

@@ -143,3 +143,26 @@ def test_geometry_nodes_instances(scene):
     centres = sorted(round(float(m.vertices.mean(axis=0)[0]), 5) for m in meshes)
     assert centres == [0.0, 2.0, 4.0]
     assert all(np.ptp(m.vertices, axis=0) == pytest.approx(0.5) for m in meshes)
+
+
+def test_mixed_flat_and_smooth_faces_use_vertex_normals_as_cycles(scene):
+    """Cycles 5.0 syncs a mesh mixing flat and smooth faces (no sharp edges, no custom normals)
+    in Blender's point normal domain (blender/mesh.cpp normals_domain(true)): smooth faces get the
+    vertex normals, averaged over the flat faces too; Blender's own corner normals would split them."""
+    obj = add_mesh(scene, "Box", smooth=True)
+    obj.data.polygons[0].use_smooth = False  # one flat face
+    scene_, _ = export(scene)
+    mesh = scene_.meshes[0]
+    vertex_normals = {tuple(np.round(v.co, 6)): np.array(v.normal) for v in obj.data.vertices}
+    flat_face_normal = np.array(obj.data.polygons[0].normal)
+    checked_smooth = checked_flat = 0
+    for t, tri in enumerate(mesh.triangles):
+        corners = mesh.vertices[tri]
+        normals = mesh.corner_normals[t]
+        expected = [vertex_normals[tuple(np.round(c, 6))] for c in corners]
+        if np.allclose(normals, flat_face_normal, atol=1e-5):
+            checked_flat += 1
+            continue
+        np.testing.assert_allclose(normals, expected, atol=1e-5)
+        checked_smooth += 1
+    assert checked_flat == 2 and checked_smooth == 10

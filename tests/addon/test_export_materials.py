@@ -10,6 +10,21 @@ import volpath_native as vp
 from addon_scenes import add_mesh, export, node_material, shader
 
 
+def _albedo(material):
+    """The diffuse albedo the material's nodes add up to (weight x colour of its diffuse nodes)."""
+    total = np.zeros(3)
+    for node in material.bsdf_nodes():
+        if node.kind == "diffuse":
+            total += node.weight * node.color
+    return total
+
+
+def _only(material, kind):
+    nodes = material.bsdf_nodes()
+    assert [n.kind for n in nodes] == [kind], [n.kind for n in nodes]
+    return nodes[0]
+
+
 def _material(sc, mat):
     add_mesh(sc, "Box", material=mat)
     scene, warnings = export(sc)
@@ -20,8 +35,8 @@ def _material(sc, mat):
 def test_diffuse_bsdf(scene):
     mat = node_material("Red", surface=shader("ShaderNodeBsdfDiffuse", Color=(0.7, 0.2, 0.1, 1.0)))
     _, material, warnings = _material(scene, mat)
-    assert material.surface == "diffuse"
-    np.testing.assert_allclose(material.base_color, [0.7, 0.2, 0.1], rtol=1e-6)
+    assert material.surface == "shaded"
+    np.testing.assert_allclose(_albedo(material), [0.7, 0.2, 0.1], rtol=1e-6)
     np.testing.assert_allclose(material.emission, 0.0)
     assert warnings == []
 
@@ -36,10 +51,82 @@ def test_principled_bsdf_base_and_emission(scene):
         return node.outputs[0]
 
     _, material, warnings = _material(scene, node_material("P", surface=principled))
-    np.testing.assert_allclose(material.base_color, [0.3, 0.6, 0.9], rtol=1e-6)
+    node = _only(material, "principled")
+    np.testing.assert_allclose(node.color, [0.3, 0.6, 0.9], rtol=1e-6)
     np.testing.assert_allclose(material.emission, [4.0, 2.0, 1.0], rtol=1e-6)
-    # The default dielectric specular layer is not rendered: the user is told.
-    assert any("'P'" in w and "specular" in w for w in warnings)
+    # Blender's defaults reach the kernel unchanged (it builds Cycles' layers from them)
+    assert (node.roughness, node.ior, node.metallic, node.transmission, node.alpha) == pytest.approx(
+        (0.5, 1.5, 0.0, 0.0, 1.0))
+    assert node.specular_ior_level == pytest.approx(0.5) and node.distribution == "multi_ggx"
+    assert warnings == []
+
+
+def test_principled_bsdf_layers_are_exported(scene):
+    values = {"Metallic": 0.3, "Roughness": 0.2, "IOR": 1.33, "Alpha": 0.7, "Transmission Weight": 0.4,
+              "Coat Weight": 0.6, "Coat Roughness": 0.1, "Coat IOR": 1.6, "Sheen Weight": 0.5,
+              "Sheen Roughness": 0.3, "Specular IOR Level": 0.25}
+    colours = {"Specular Tint": (0.9, 0.8, 0.7), "Coat Tint": (0.5, 0.6, 0.7), "Sheen Tint": (0.2, 0.3, 0.4)}
+    inputs = {k.replace(" ", "_"): v for k, v in values.items()}
+    inputs.update({k.replace(" ", "_"): (*v, 1.0) for k, v in colours.items()})
+    _, material, warnings = _material(scene, node_material("Layers", surface=shader("ShaderNodeBsdfPrincipled",
+                                                                                    **inputs)))
+    node = _only(material, "principled")
+    fields = {"Metallic": "metallic", "Roughness": "roughness", "IOR": "ior", "Alpha": "alpha",
+              "Transmission Weight": "transmission", "Coat Weight": "coat_weight", "Coat Roughness": "coat_roughness",
+              "Coat IOR": "coat_ior", "Sheen Weight": "sheen_weight", "Sheen Roughness": "sheen_roughness",
+              "Specular IOR Level": "specular_ior_level"}
+    for socket, field in fields.items():
+        assert getattr(node, field) == pytest.approx(values[socket]), field
+    np.testing.assert_allclose(node.specular_tint, colours["Specular Tint"], rtol=1e-6)
+    np.testing.assert_allclose(node.coat_tint, colours["Coat Tint"], rtol=1e-6)
+    np.testing.assert_allclose(node.sheen_tint, colours["Sheen Tint"], rtol=1e-6)
+    assert warnings == []
+
+
+@pytest.mark.parametrize("node_type, inputs, kind, expected", [
+    ("ShaderNodeBsdfGlass", dict(Color=(0.9, 0.8, 0.7, 1.0), Roughness=0.1, IOR=1.45), "glass",
+     dict(roughness=0.1, ior=1.45, distribution="multi_ggx")),
+    ("ShaderNodeBsdfRefraction", dict(Roughness=0.2, IOR=1.33), "refraction",
+     dict(roughness=0.2, ior=1.33, distribution="beckmann")),
+    ("ShaderNodeBsdfGlossy", dict(Color=(0.5, 0.5, 0.5, 1.0), Roughness=0.3), "glossy",
+     dict(roughness=0.3, distribution="multi_ggx")),
+    ("ShaderNodeBsdfMetallic", dict(Roughness=0.4), "metallic", dict(roughness=0.4, fresnel="f82")),
+    ("ShaderNodeBsdfTranslucent", dict(Color=(0.2, 0.9, 0.2, 1.0)), "translucent", {}),
+    ("ShaderNodeBsdfTransparent", dict(Color=(0.5, 0.9, 0.2, 1.0)), "transparent", {}),
+    ("ShaderNodeBsdfSheen", dict(Roughness=0.6), "sheen", dict(roughness=0.6)),
+])
+def test_glass_glossy_metallic_and_friends(scene, node_type, inputs, kind, expected):
+    _, material, warnings = _material(scene, node_material("M", surface=shader(node_type, **inputs)))
+    node = _only(material, kind)
+    for field, value in expected.items():
+        assert getattr(node, field) == pytest.approx(value), (kind, field)
+    if "Color" in inputs:
+        np.testing.assert_allclose(node.color, inputs["Color"][:3], rtol=1e-6)
+    assert warnings == [], warnings
+
+
+def test_physical_conductor_exports_ior_and_extinction(scene):
+    def metal(tree):
+        node = tree.nodes.new("ShaderNodeBsdfMetallic")
+        node.fresnel_type = "PHYSICAL_CONDUCTOR"
+        node.inputs["IOR"].default_value = (0.2, 0.9, 1.1)
+        node.inputs["Extinction"].default_value = (3.9, 2.4, 2.2)
+        return node.outputs[0]
+
+    _, material, _ = _material(scene, node_material("Copper", surface=metal))
+    node = _only(material, "metallic")
+    assert node.fresnel == "physical"
+    np.testing.assert_allclose(node.conductor_n, [0.2, 0.9, 1.1], rtol=1e-6)
+    np.testing.assert_allclose(node.conductor_k, [3.9, 2.4, 2.2], rtol=1e-6)
+
+
+def test_glass_with_a_volume_keeps_surface_and_medium(scene):
+    glass = shader("ShaderNodeBsdfGlass", IOR=1.33)
+    volume = shader("ShaderNodeVolumeAbsorption", Color=(0.9, 0.4, 0.1, 1.0), Density=2.0)
+    scene_, material, _ = _material(scene, node_material("Liquid", surface=glass, volume=volume))
+    assert material.surface == "shaded" and material.medium == 0
+    assert _only(material, "glass").ior == pytest.approx(1.33)
+    np.testing.assert_allclose(scene_.media[0].sigma_a, 2.0 * np.array([0.1, 0.6, 0.9]), rtol=1e-6)
 
 
 def test_emission_and_mix_shader(scene):
@@ -56,7 +143,7 @@ def test_emission_and_mix_shader(scene):
         return mix.outputs[0]
 
     _, material, _ = _material(scene, node_material("Mix", surface=mixed))
-    np.testing.assert_allclose(material.base_color, 0.75 * np.array([0.8, 0.8, 0.4]), rtol=1e-6)
+    np.testing.assert_allclose(_albedo(material), 0.75 * np.array([0.8, 0.8, 0.4]), rtol=1e-6)
     np.testing.assert_allclose(material.emission, 0.25 * np.array([10.0, 0.0, 5.0]), rtol=1e-6)
 
 
@@ -89,7 +176,7 @@ def test_scatter_plus_absorption(scene):
 
     surface = shader("ShaderNodeBsdfDiffuse", Color=(0.5, 0.5, 0.5, 1.0))
     scene_, material, _ = _material(scene, node_material("Murk", surface=surface, volume=added))
-    assert material.surface == "diffuse" and material.medium == 0  # surface AND medium inside
+    assert material.surface == "shaded" and material.medium == 0  # surface AND medium inside
     medium = scene_.media[0]
     np.testing.assert_allclose(medium.sigma_s, [0.45, 0.25, 0.05], rtol=1e-6)
     np.testing.assert_allclose(medium.sigma_a, [2.4, 1.8, 0.0], atol=1e-6)
@@ -125,21 +212,29 @@ def test_scatter_closures_with_different_anisotropy_become_phase_lobes(scene):
 
 def test_nothing_connected_is_black(scene):
     _, material, _ = _material(scene, node_material("Empty"))
-    assert material.surface == "diffuse" and material.medium == -1
-    np.testing.assert_allclose(material.base_color, 0.0)
+    assert material.surface == "shaded" and material.medium == -1
+    assert material.bsdf_nodes() == []
 
 
-def test_no_material_is_grey_diffuse(scene):
+def test_no_material_is_cycles_default_principled(scene):
     _, material, warnings = _material(scene, None)
-    np.testing.assert_allclose(material.base_color, 0.8)
-    assert any("without a material" in w for w in warnings)
+    node = _only(material, "principled")
+    np.testing.assert_allclose(node.color, 0.8)
+    assert node.roughness == pytest.approx(0.5) and node.ior == pytest.approx(1.5)
+    assert warnings == []
 
 
 def test_unsupported_node_warns_and_falls_back(scene):
-    glossy = shader("ShaderNodeBsdfGlossy")
-    _, material, warnings = _material(scene, node_material("Shiny", surface=glossy))
-    np.testing.assert_allclose(material.base_color, 0.8)  # documented fallback
-    assert any("'Shiny'" in w and "Glossy" in w for w in warnings), warnings
+    toon = shader("ShaderNodeBsdfToon")
+    _, material, warnings = _material(scene, node_material("Cartoon", surface=toon))
+    np.testing.assert_allclose(_albedo(material), 0.8)  # documented fallback
+    assert any("'Cartoon'" in w and "Toon" in w for w in warnings), warnings
+
+
+def test_holdout_warns_and_renders_black(scene):
+    _, material, warnings = _material(scene, node_material("Hole", surface=shader("ShaderNodeHoldout")))
+    assert material.bsdf_nodes() == []
+    assert any("'Hole'" in w and "Holdout" in w for w in warnings), warnings
 
 
 def test_linked_texture_warns_and_uses_socket_value(scene):
@@ -151,7 +246,7 @@ def test_linked_texture_warns_and_uses_socket_value(scene):
         return diffuse.outputs[0]
 
     _, material, warnings = _material(scene, node_material("Tex", surface=textured))
-    np.testing.assert_allclose(material.base_color, [0.1, 0.2, 0.3], rtol=1e-6)
+    np.testing.assert_allclose(_albedo(material), [0.1, 0.2, 0.3], rtol=1e-6)
     assert any("'Tex'" in w and "Noise Texture" in w and "Color" in w for w in warnings), warnings
 
 
@@ -164,7 +259,7 @@ def test_rgb_node_feeding_an_input_is_a_constant(scene):
         return diffuse.outputs[0]
 
     _, material, warnings = _material(scene, node_material("Const", surface=rgb_fed))
-    np.testing.assert_allclose(material.base_color, [0.25, 0.5, 0.75], rtol=1e-6)
+    np.testing.assert_allclose(_albedo(material), [0.25, 0.5, 0.75], rtol=1e-6)
     assert warnings == []
 
 
@@ -224,7 +319,7 @@ def test_view_layer_material_override(scene):
     add_mesh(scene, "Box", material=red)
     bpy.context.view_layer.material_override = blue
     scene_, _ = export(scene)
-    np.testing.assert_allclose(scene_.materials[scene_.meshes[0].material_ids[0]].base_color, [0, 0, 1])
+    np.testing.assert_allclose(_albedo(scene_.materials[scene_.meshes[0].material_ids[0]]), [0, 0, 1])
 
 
 def test_reroutes_and_muted_links(scene):
@@ -235,8 +330,8 @@ def test_reroutes_and_muted_links(scene):
         return reroute.outputs[0]
 
     _, material, _ = _material(scene, node_material("Rerouted", surface=rerouted))
-    np.testing.assert_allclose(material.base_color, [0.2, 0.4, 0.6], rtol=1e-6)
+    np.testing.assert_allclose(_albedo(material), [0.2, 0.4, 0.6], rtol=1e-6)
     link = bpy.data.materials["Rerouted"].node_tree.links[0]
     link.is_muted = True  # a muted link is no link: black surface
     scene_, _ = export(scene)
-    np.testing.assert_allclose(scene_.materials[scene_.meshes[0].material_ids[0]].base_color, 0.0)
+    assert scene_.materials[scene_.meshes[0].material_ids[0]].bsdf_nodes() == []

@@ -90,7 +90,7 @@ def test_cancel_stops_within_a_second(scene, captured, monkeypatch):
 
 def test_unsupported_node_is_reported_as_warning(scene, captured, capfd):
     _fog_scene(scene)
-    add_mesh(scene, "Shiny", material=node_material("Shiny", surface=shader("ShaderNodeBsdfGlossy")),
+    add_mesh(scene, "Shiny", material=node_material("Shiny", surface=shader("ShaderNodeBsdfToon")),
              location=(2.5, 0, 0), scale=(0.3, 0.3, 0.3))
     bpy.ops.render.render()
     out = capfd.readouterr()

@@ -22,11 +22,13 @@ import tracemalloc
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-for path in (str(ROOT), str(ROOT / "native")):
+for path in (str(ROOT), str(ROOT / "native"), str(Path(__file__).resolve().parent)):
     if path not in sys.path:
         sys.path.insert(0, path)
 
 import numpy as np  # noqa: E402
+
+from equal_time import equal_time_row  # noqa: E402
 
 CLOUD_SHAPE = (128, 128, 128)
 CLOUD_SIZE = 2.0  # m, edge of the grid's box
@@ -109,7 +111,7 @@ def main(argv=None) -> int:
     import addon
 
     addon.register()
-    from addon.compare import cycles_engine, metrics, volpath_engine
+    from addon.compare import volpath_engine
 
     with tempfile.TemporaryDirectory(prefix="volpath_bench_cloud_") as tmp:
         tmp = Path(tmp)
@@ -124,44 +126,8 @@ def main(argv=None) -> int:
               f"{tuple(cloud.majorant_shape)}, medium arrays {cloud.memory_bytes() / 2 ** 20:.1f} MB; "
               f"{args.resolution}x{args.resolution} px; .vdb + scene + VolPath export {export_seconds:.1f} s")
 
-        # Reference: one high-sample Cycles render (seed 1000); it also gives Cycles' cost per sample.
-        bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
-        with cycles_engine.matched_settings(scene, bounces):
-            reference = cycles_engine.render_once(scene, samples=args.reference_spp, seed=1000, scratch=tmp)
-            cycles_per_sample = reference.render_seconds / args.reference_spp
-            cycles_spp = max(1, int(args.seconds / cycles_per_sample))
-            cycles_run = cycles_engine.render_once(scene, samples=cycles_spp, seed=1, scratch=tmp)
-        sync = reference.seconds - reference.render_seconds
-        print(f"reference: Cycles {args.reference_spp} spp, render {reference.render_seconds:.1f} s "
-              f"(+ {sync:.1f} s scene sync per render, excluded from the equal-time budget)")
-
-        volpath_run = volpath_engine.render_runs(native_scene, runs=1, samples=1, base_seed=1,
-                                                 time_limit=args.seconds)[0]
-        pixels = args.resolution ** 2
-        volpath_rate = volpath_run.samples / volpath_run.render_seconds
-        print(f"VolPath: {volpath_run.samples} spp in {volpath_run.render_seconds:.1f} s = {volpath_rate:.2f} spp/s "
-              f"= {volpath_rate * pixels / 1e3:.1f} k samples/s")
-        cycles_rate = cycles_run.samples / max(cycles_run.render_seconds, 1e-9)
-        print(f"Cycles:  {cycles_run.samples} spp in {cycles_run.render_seconds:.1f} s = {cycles_rate:.2f} spp/s "
-              f"= {cycles_rate * pixels / 1e3:.1f} k samples/s")
-
-        # relMSE against a noisy reference adds the reference's own error: for Cycles (independent,
-        # same estimator) E[raw] = e_c (1 + n_c / n_ref); remove that share from both engines.
-        raw_v = metrics.relmse(volpath_run.image, reference.image)
-        raw_c = metrics.relmse(cycles_run.image, reference.image)
-        reference_share = raw_c * cycles_run.samples / (cycles_run.samples + args.reference_spp)
-        err_v, err_c = raw_v - reference_share, raw_c - reference_share
-        print(f"equal render time ({args.seconds:.0f} s each), relMSE vs reference: VolPath {err_v:.4g}, Cycles "
-              f"{err_c:.4g} (raw {raw_v:.4g} / {raw_c:.4g}, reference noise ~{reference_share:.3g}); "
-              f"VolPath/Cycles = {err_v / err_c:.3g}")
-        # Cycles' cost per sample drifts between runs, so its equal-time run may miss the budget; for
-        # unbiased Monte Carlo relMSE x time is constant: compare that (lower = more efficient).
-        cost_v, cost_c = err_v * volpath_run.render_seconds, err_c * cycles_run.render_seconds
-        print(f"relMSE x render seconds: VolPath {cost_v:.4g}, Cycles {cost_c:.4g}; VolPath needs "
-              f"{cost_v / cost_c:.3g}x Cycles' time for the same error")
-        means_v = metrics.rgb(volpath_run.image).mean(axis=(0, 1))
-        means_r = metrics.rgb(reference.image).mean(axis=(0, 1))
-        print("image mean ratio VolPath/reference R/G/B: " + " ".join(f"{a / b:.4f}" for a, b in zip(means_v, means_r)))
+        row = equal_time_row("cloud", scene, native_scene, args.seconds, args.reference_spp, tmp)
+        print(*row.lines(args.resolution ** 2), sep="\n")
 
     arrays_mb, peak_mb, input_mb = grid_memory(256)
     print(f"memory, 256^3 grid medium: arrays {arrays_mb:.1f} MB, peak while building {peak_mb:.1f} MB "

@@ -1,0 +1,225 @@
+"""Blender surface shader nodes -> VolPath SurfaceNode lists (one per BSDF node, with its mix weight).
+
+The tree is read, not executed: closures combine linearly (Add Shader; Mix Shader with a constant
+factor), so a surface is a weighted list of BSDF nodes plus an emission. The kernel side
+(volpath_native.bsdfs) expands each node into lobes at the hit exactly as Cycles'
+svm_node_closure_bsdf does (intern/cycles/kernel/svm/closure.h), including the Principled
+layering that depends on the view direction, so the exporter only copies the node's inputs.
+
+Supported: Principled, Diffuse, Glossy (Anisotropic), Glass, Refraction, Metallic (4.3+),
+Transparent, Translucent, Sheen (4.0+), Emission, Add / Mix Shader, Holdout (black, warned).
+Documented fallbacks, each warned naming material and node: an unsupported BSDF renders as a 0.8
+grey diffuse surface; tangents are not exported, so anisotropy renders isotropic; subsurface
+scattering renders as the diffuse layer (Cycles' random walk is not implemented).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from volpath_native.bsdfs.nodes import SurfaceNode
+
+from .. import compat
+
+# Cycles' surface for objects without a material is a default Principled BSDF (scene/shader.cpp
+# ShaderManager::add_default).
+DEFAULT_GREY = 0.8
+
+_DISTRIBUTIONS = {"MULTI_GGX": "multi_ggx", "GGX": "ggx", "BECKMANN": "beckmann",
+                  "ASHIKHMIN_SHIRLEY": "ggx", "SHARP": "ggx"}
+
+
+@dataclass
+class SurfaceTerms:
+    """A weighted list of BSDF nodes and the emitted radiance (W/(m^2 sr), both faces)."""
+
+    nodes: list = field(default_factory=list)
+    emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def scaled(self, w: float) -> "SurfaceTerms":
+        return SurfaceTerms([_reweighted(n, n.weight * w) for n in self.nodes], self.emission * w)
+
+    def __add__(self, other: "SurfaceTerms") -> "SurfaceTerms":
+        return SurfaceTerms(self.nodes + other.nodes, self.emission + other.emission)
+
+
+def _reweighted(node: SurfaceNode, weight: float) -> SurfaceNode:
+    record = node.to_record()
+    record["weight"] = weight
+    return SurfaceNode.from_record(record)
+
+
+def _distribution(reader, node, allowed=("multi_ggx", "ggx", "beckmann")) -> str:
+    name = getattr(node, "distribution", "GGX")
+    value = _DISTRIBUTIONS.get(name)
+    if value is None or value not in allowed:
+        value = "ggx"
+        reader.warn(node, f"microfacet distribution {name} is not supported; rendered as GGX")
+    if name in ("ASHIKHMIN_SHIRLEY", "SHARP"):
+        reader.warn(node, f"microfacet distribution {name} is rendered as GGX")
+    return value
+
+
+def _warn_linked(reader, node, names):
+    for name in names:
+        socket = node.inputs.get(name)
+        if socket is not None and socket.is_linked:
+            reader.warn(node, f"input '{name}' is linked; VolPath does not evaluate normal/tangent "
+                              "inputs yet and uses the interpolated normal")
+
+
+def _anisotropy(reader, node, name) -> float:
+    socket = node.inputs.get(name)
+    value = reader.scalar(node, socket) if socket is not None else 0.0
+    if value != 0.0:
+        reader.warn(node, f"{name} {value:g}: anisotropy needs tangents, rendered isotropic")
+    return 0.0
+
+
+def surface_terms(reader, shader_node_of, socket) -> SurfaceTerms:
+    """The surface closures feeding `socket`; black (no terms) if nothing is connected.
+    shader_node_of(socket) -> the unmuted node feeding it, or None (shading._shader_node)."""
+    node = shader_node_of(socket)
+    if node is None:
+        return SurfaceTerms()
+    kind = node.type
+    if kind == "ADD_SHADER":
+        return (surface_terms(reader, shader_node_of, node.inputs[0])
+                + surface_terms(reader, shader_node_of, node.inputs[1]))
+    if kind == "MIX_SHADER":
+        f = float(np.clip(reader.scalar(node, node.inputs[0]), 0.0, 1.0))
+        return (surface_terms(reader, shader_node_of, node.inputs[1]).scaled(1.0 - f)
+                + surface_terms(reader, shader_node_of, node.inputs[2]).scaled(f))
+    if kind == "EMISSION":
+        # Emission closure radiance = colour x strength, both faces (kernel/closure/emissive.h).
+        return SurfaceTerms(emission=reader.rgb(node, "Color") * reader.scalar(node, "Strength"))
+    if kind == "HOLDOUT":
+        reader.warn(node, "Holdout is rendered as a black surface (no alpha holdout in the film)")
+        return SurfaceTerms()
+    converter = _CONVERTERS.get(kind)
+    if converter is None:
+        reader.warn(node, f"unsupported surface shader; rendered as a {DEFAULT_GREY} grey diffuse surface")
+        return SurfaceTerms([SurfaceNode.for_kind("diffuse", color=np.full(3, DEFAULT_GREY))])
+    return converter(reader, node)
+
+
+def _diffuse(reader, node) -> SurfaceTerms:
+    _warn_linked(reader, node, ("Normal",))
+    return SurfaceTerms([SurfaceNode(kind="diffuse", color=reader.rgb(node, "Color"),
+                                     roughness=reader.scalar(node, "Roughness"))])
+
+
+def _glossy(reader, node) -> SurfaceTerms:
+    _warn_linked(reader, node, ("Normal", "Tangent"))
+    return SurfaceTerms([SurfaceNode(kind="glossy", color=reader.rgb(node, "Color"),
+                                     roughness=reader.scalar(node, "Roughness"),
+                                     anisotropic=_anisotropy(reader, node, "Anisotropy"),
+                                     distribution=_distribution(reader, node))])
+
+
+def _glass(reader, node) -> SurfaceTerms:
+    _warn_linked(reader, node, ("Normal",))
+    _thin_film(reader, node)
+    return SurfaceTerms([SurfaceNode(kind="glass", color=reader.rgb(node, "Color"),
+                                     roughness=reader.scalar(node, "Roughness"), ior=reader.scalar(node, "IOR"),
+                                     distribution=_distribution(reader, node))])
+
+
+def _refraction(reader, node) -> SurfaceTerms:
+    _warn_linked(reader, node, ("Normal",))
+    return SurfaceTerms([SurfaceNode(kind="refraction", color=reader.rgb(node, "Color"),
+                                     roughness=reader.scalar(node, "Roughness"), ior=reader.scalar(node, "IOR"),
+                                     distribution=_distribution(reader, node, ("ggx", "beckmann")))])
+
+
+def _metallic(reader, node) -> SurfaceTerms:
+    _warn_linked(reader, node, ("Normal", "Tangent"))
+    _thin_film(reader, node)
+    physical = getattr(node, "fresnel_type", "F82") == "PHYSICAL_CONDUCTOR"
+    values = dict(kind="metallic", roughness=reader.scalar(node, "Roughness"),
+                  anisotropic=_anisotropy(reader, node, "Anisotropy"),
+                  fresnel="physical" if physical else "f82", distribution=_distribution(reader, node))
+    # the evaluated node only has the sockets of its Fresnel mode
+    if physical:
+        values.update(conductor_n=reader.rgb(node, "IOR"), conductor_k=reader.rgb(node, "Extinction"))
+    else:
+        values.update(color=reader.rgb(node, "Base Color"), edge_tint=reader.rgb(node, "Edge Tint"))
+    return SurfaceTerms([SurfaceNode(**values)])
+
+
+def _transparent(reader, node) -> SurfaceTerms:
+    return SurfaceTerms([SurfaceNode.for_kind("transparent", color=reader.rgb(node, "Color"))])
+
+
+def _translucent(reader, node) -> SurfaceTerms:
+    _warn_linked(reader, node, ("Normal",))
+    return SurfaceTerms([SurfaceNode.for_kind("translucent", color=reader.rgb(node, "Color"))])
+
+
+def _sheen(reader, node) -> SurfaceTerms:
+    _warn_linked(reader, node, ("Normal",))
+    if node.inputs.get("Roughness") is None:  # Blender 3.x Velvet BSDF: Sigma plays the roughness
+        reader.warn(node, "Velvet BSDF is rendered as Cycles 4's Sheen BSDF with roughness = Sigma")
+        roughness = reader.scalar(node, "Sigma")
+    else:
+        roughness = reader.scalar(node, "Roughness")
+    return SurfaceTerms([SurfaceNode(kind="sheen", color=reader.rgb(node, "Color"), roughness=roughness)])
+
+
+def _thin_film(reader, node):
+    socket = node.inputs.get("Thin Film Thickness")
+    if socket is not None and reader.scalar(node, socket) > 0.1:
+        reader.warn(node, "thin-film interference is not supported; rendered without it")
+
+
+def _principled(reader, node) -> SurfaceTerms:
+    """Principled BSDF inputs as Blender 4+ names them (Blender 3.x's v1 node is mapped onto them:
+    Specular -> Specular IOR Level, Clearcoat -> Coat, Sheen -> Sheen weight, warned)."""
+    def value(key, default):
+        socket = compat.principled_socket(node, key)
+        if socket is None:
+            return default
+        return reader.rgb(node, socket) if isinstance(default, np.ndarray) else reader.scalar(node, socket)
+
+    _warn_linked(reader, node, ("Normal", "Tangent", "Coat Normal", "Clearcoat Normal"))
+    _thin_film(reader, node)
+    if node.inputs.get("Specular IOR Level") is None:
+        reader.warn(node, "Principled BSDF v1 (Blender < 4.0) is mapped onto the v2 layers "
+                          "(Specular -> IOR Level, Clearcoat -> Coat); Cycles of this Blender differs")
+    subsurface = value("subsurface", 0.0)
+    if subsurface > 0.0:
+        reader.warn(node, f"Subsurface Weight {subsurface:g}: subsurface scattering is rendered as diffuse")
+    white = np.ones(3)
+    specular_tint = value("specular_tint", white)
+    if node.inputs.get("Specular IOR Level") is None:
+        specular_tint = white  # v1's Specular Tint is a float blend toward the base colour
+    sheen_tint = value("sheen_tint", white)
+    if node.inputs.get("Sheen Weight") is None:
+        sheen_tint = white
+    terms = SurfaceNode(
+        kind="principled", color=value("base_color", np.full(3, 0.8)), metallic=value("metallic", 0.0),
+        roughness=value("roughness", 0.5), ior=value("ior", 1.5), alpha=value("alpha", 1.0),
+        diffuse_roughness=value("diffuse_roughness", 0.0), specular_ior_level=value("specular", 0.5),
+        specular_tint=specular_tint, transmission=value("transmission", 0.0),
+        coat_weight=value("coat", 0.0), coat_roughness=value("coat_roughness", 0.03), coat_ior=value("coat_ior", 1.5),
+        coat_tint=value("coat_tint", white), sheen_weight=value("sheen", 0.0),
+        sheen_roughness=value("sheen_roughness", 0.5), sheen_tint=sheen_tint,
+        anisotropic=_anisotropy(reader, node, "Anisotropic"), subsurface_weight=subsurface,
+        distribution=_distribution(reader, node, ("multi_ggx", "ggx")))
+    # Emission is added with the weight left after alpha (svm/closure.h principled emission);
+    # Cycles also attenuates it by the sheen and coat albedo seen from the viewer, which VolPath
+    # does not (the light sampler needs a view-independent emitter): README, knowingly differs.
+    emission = value("emission_color", np.ones(3)) * value("emission_strength", 0.0)
+    emission = emission * float(np.clip(terms.alpha, 0.0, 1.0))
+    if np.any(emission > 0) and (terms.coat_weight > 0 or terms.sheen_weight > 0):
+        reader.warn(node, "emission under coat or sheen is not attenuated by them (Cycles attenuates it)")
+    return SurfaceTerms([terms], emission)
+
+
+_CONVERTERS = {
+    "BSDF_PRINCIPLED": _principled, "BSDF_DIFFUSE": _diffuse, "BSDF_GLOSSY": _glossy,
+    "BSDF_ANISOTROPIC": _glossy, "BSDF_GLASS": _glass, "BSDF_REFRACTION": _refraction,
+    "BSDF_METALLIC": _metallic, "BSDF_TRANSPARENT": _transparent, "BSDF_TRANSLUCENT": _translucent,
+    "BSDF_SHEEN": _sheen, "BSDF_VELVET": _sheen,
+}

@@ -1,0 +1,65 @@
+"""Equal render-time comparison of VolPath and Cycles on one Blender scene, shared by the benchmarks.
+
+Reference: one high-sample Cycles render (seed 1000), which also gives Cycles' cost per sample;
+then each engine renders for the same render-time budget (Cycles' scene sync excluded, as its own
+time limit does). relMSE against a noisy reference holds the reference's own error: for Cycles
+(independent, same estimator) E[raw] = e_c (1 + n_c / n_ref); that share is removed from both.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class EqualTimeRow:
+    name: str
+    volpath_spp: int
+    volpath_seconds: float
+    cycles_spp: int
+    cycles_seconds: float
+    relmse_volpath: float
+    relmse_cycles: float
+    reference_spp: int
+    mean_ratio: np.ndarray  # VolPath / reference, per channel
+
+    @property
+    def error_ratio(self) -> float:
+        return self.relmse_volpath / self.relmse_cycles
+
+    @property
+    def time_ratio(self) -> float:
+        """Time VolPath needs for Cycles' error (relMSE x time is constant for unbiased MC)."""
+        return (self.relmse_volpath * self.volpath_seconds) / (self.relmse_cycles * self.cycles_seconds)
+
+    def lines(self, pixels: int) -> list:
+        return [
+            f"{self.name}: VolPath {self.volpath_spp} spp in {self.volpath_seconds:.1f} s "
+            f"({self.volpath_spp * pixels / self.volpath_seconds / 1e3:.1f} k samples/s), Cycles {self.cycles_spp} spp "
+            f"in {self.cycles_seconds:.1f} s ({self.cycles_spp * pixels / self.cycles_seconds / 1e3:.1f} k samples/s)",
+            f"  relMSE vs a {self.reference_spp}-spp Cycles reference: VolPath {self.relmse_volpath:.4g}, Cycles "
+            f"{self.relmse_cycles:.4g}; ratio {self.error_ratio:.3g}; VolPath needs {self.time_ratio:.3g}x Cycles' "
+            "time for the same error",
+            "  image mean ratio VolPath/reference R/G/B: " + " ".join(f"{r:.4f}" for r in self.mean_ratio),
+        ]
+
+
+def equal_time_row(name: str, scene, native_scene, seconds: float, reference_spp: int, scratch) -> EqualTimeRow:
+    from addon.compare import cycles_engine, metrics, volpath_engine
+
+    bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
+    with cycles_engine.matched_settings(scene, bounces):
+        reference = cycles_engine.render_once(scene, samples=reference_spp, seed=1000, scratch=scratch)
+        cycles_per_sample = reference.render_seconds / reference_spp
+        cycles_run = cycles_engine.render_once(scene, samples=max(1, int(seconds / cycles_per_sample)), seed=1,
+                                               scratch=scratch)
+    volpath_run = volpath_engine.render_runs(native_scene, runs=1, samples=1, base_seed=1, time_limit=seconds)[0]
+    raw_v = metrics.relmse(volpath_run.image, reference.image)
+    raw_c = metrics.relmse(cycles_run.image, reference.image)
+    reference_share = raw_c * cycles_run.samples / (cycles_run.samples + reference_spp)
+    means_v = metrics.rgb(volpath_run.image).mean(axis=(0, 1))
+    means_r = metrics.rgb(reference.image).mean(axis=(0, 1))
+    return EqualTimeRow(name, volpath_run.samples, volpath_run.render_seconds, cycles_run.samples,
+                        max(cycles_run.render_seconds, 1e-9), raw_v - reference_share, raw_c - reference_share,
+                        reference_spp, means_v / np.maximum(means_r, 1e-30))
