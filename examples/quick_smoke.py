@@ -79,6 +79,12 @@ def bake(domain) -> None:
                          "(the bpy 5.0.1 wheel cannot); use Debian's Blender 3.4 or an official build")
 
 
+def hide_emitter() -> None:
+    """After baking, hide the emitter in the viewport too: the cache no longer needs it, and the
+    comparison tool exports the viewport's depsgraph, where hide_render does not apply."""
+    bpy.data.objects["Emitter"].hide_viewport = True
+
+
 def main(argv=None) -> Path:
     argv = list(sys.argv[1:] if argv is None else argv)
     if "--" in argv:
@@ -100,6 +106,7 @@ def main(argv=None) -> Path:
     bpy.context.preferences.filepaths.save_version = 0  # no OUT.blend1 from the second save
     out = sb.save(out)  # the cache path is relative to the saved file
     bake(domain)
+    hide_emitter()
     scene.frame_set(scene.frame_end)
     sb.save(out)
     print(f"wrote {out} (cache in {out.parent / (out.stem + '_cache')})")

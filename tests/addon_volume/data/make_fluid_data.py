@@ -69,6 +69,7 @@ def make(name, fire, resolution, last, kept, how):
     bpy.context.preferences.filepaths.save_version = 0
     bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=True)
     quick_smoke.bake(domain)
+    quick_smoke.hide_emitter()
     first = last - kept + 1
     trim(cache, first)
     settings = quick_smoke.domain_settings(domain)
