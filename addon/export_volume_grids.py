@@ -1,7 +1,8 @@
-"""Export Blender Volume objects (OpenVDB grids) to dense numpy grids and GridMedium instances.
+"""Export Blender Volume objects (OpenVDB grids) to dense numpy grids (ExportedVolume).
 
-The scene exporter (addon/export/__init__.py, _export_volume_objects) calls
-`export_volume_objects(depsgraph, warnings)` and `grid_medium_from_volume(exported, warnings)`.
+The scene exporter (addon/export/__init__.py, _export_grid_media) calls
+`export_volume_objects(depsgraph, warnings)`; the grids become media through the converter Volume
+objects share with fluid domains (addon/export/grid_media.py, `grid_medium_from_volume`).
 
 How the grids are read: the *evaluated* Volume's grids (after modifiers / geometry nodes) are
 written with `Volume.grids.save()` to a temporary .vdb and read back with the `openvdb` module that
@@ -13,13 +14,6 @@ flame align voxel for voxel); its index->world transform is the grid's own linea
 object's matrix_world, as Cycles does (intern/cycles/scene/image_vdb.cpp: index_to_object from the
 grid's affine map; object transform applied on top).
 
-Material (Cycles' Principled Volume, kernel/svm/closure.h): Density x the density attribute grid,
-Color x the colour grid, the object's density factor (scene/object.cpp), Emission Strength x Emission
-Color (or, when an Attribute node feeds Emission Strength, that grid per voxel: Blender's flame setup),
-and blackbody emission from Temperature x the temperature grid (or the constant Temperature when the
-grid is absent), computed per voxel and interpolated like Cycles' stochastic lookups. Other node
-setups: a warning and the socket values / defaults.
-
 Bad input never raises into Blender: a missing file, an unsupported grid type, an empty grid, a
 non-linear (frustum) transform or a grid too large for dense storage produce a warning string and
 the grid (or the whole object, when its density grid is unusable) is skipped.
@@ -29,16 +23,16 @@ from __future__ import annotations
 import os
 import sys
 import tempfile
-from dataclasses import dataclass, field
 from typing import Optional
 
 import bpy
 import numpy as np
 
-from volpath_native.grid_medium import (GridMedium, blackbody_emission, principled_volume_coefficients,
-                                        volume_object_density_factor)
+from volpath_native.grid_medium import volume_object_density_factor
 
-from .compat import material_node_tree
+# The shared grid -> medium converter; re-exported for callers of this module.
+from .export.grid_media import (DenseGrid, ExportedVolume, grid_medium_from_volume,  # noqa: F401
+                                material_grid_names, principled_volume_inputs)
 
 #: Grid names Cycles maps to standard attributes (intern/cycles/blender/volume.cpp).
 STANDARD_GRIDS = ("density", "color", "temperature", "flame", "heat")
@@ -69,28 +63,6 @@ def import_openvdb():
             f"the openvdb module Blender bundles was not found (looked in {bundled}): "
             "Volume objects cannot be exported") from error
 
-
-@dataclass
-class DenseGrid:
-    """One grid as a dense array: data[i, j, k] (float32; (..., 3) for vector grids) holds the value
-    at index-space point (i, j, k), which index_to_world (4x4) maps to world space."""
-
-    name: str
-    data: np.ndarray
-    index_to_world: np.ndarray
-    index_origin: tuple  # OpenVDB index coordinate of data[0, 0, 0]
-    grid_to_object: np.ndarray  # the grid's own index->object transform (4x4)
-
-
-@dataclass
-class ExportedVolume:
-    """The grids of one Volume object, the object's transform and Cycles' density scale."""
-
-    object_name: str
-    object_to_world: np.ndarray
-    grids: dict = field(default_factory=dict)
-    density_factor: float = 1.0
-    material: Optional[object] = None  # bpy.types.Material or None
 
 
 def _affine_from_openvdb(transform) -> Optional[np.ndarray]:
@@ -261,154 +233,3 @@ def _shift(origin) -> np.ndarray:
     m = np.eye(4)
     m[:3, 3] = origin
     return m
-
-
-# ----------------------------------------------------------------------------------------------
-# Material: Principled Volume driven by the grids
-# ----------------------------------------------------------------------------------------------
-PRINCIPLED_DEFAULTS = {
-    "Color": (0.5, 0.5, 0.5), "Color Attribute": "", "Density": 1.0, "Density Attribute": "density",
-    "Anisotropy": 0.0, "Absorption Color": (0.0, 0.0, 0.0), "Emission Strength": 0.0,
-    "Emission Color": (1.0, 1.0, 1.0), "Blackbody Intensity": 0.0, "Blackbody Tint": (1.0, 1.0, 1.0),
-    "Temperature": 1000.0, "Temperature Attribute": "temperature",
-    # Not a socket: the grid an Attribute node feeds into Emission Strength (e.g. 'flame'), or "".
-    "Emission Strength Attribute": "",
-}
-
-
-def _attribute_source(socket) -> str:
-    """Name of the grid attribute a socket reads through a (Geometry) Attribute node's Fac/Color
-    output, following reroutes; "" if it is driven by anything else."""
-    link = socket.links[0] if socket.links else None
-    while link is not None and link.from_node.bl_idname == "NodeReroute" and link.from_node.inputs[0].links:
-        link = link.from_node.inputs[0].links[0]
-    if link is None or link.is_muted or link.from_node.mute:
-        return ""
-    node = link.from_node
-    if (node.bl_idname == "ShaderNodeAttribute" and node.attribute_type == "GEOMETRY"
-            and link.from_socket.identifier in ("Fac", "Color")):  # names differ by version (Fac/Factor)
-        return node.attribute_name
-    return ""
-
-
-def material_grid_names(material) -> set:
-    """Grid names a material's Principled Volume reads (attribute sockets and Attribute nodes)."""
-    inputs = principled_volume_inputs(material, [], "")
-    names = {inputs["Density Attribute"], inputs["Color Attribute"], inputs["Emission Strength Attribute"]}
-    if inputs["Blackbody Intensity"] > 0:
-        names.add(inputs["Temperature Attribute"])
-    return {name for name in names if name}
-
-
-def principled_volume_inputs(material, warnings: list, label: str) -> dict:
-    """The Principled Volume socket values of a material's active Volume output.
-
-    No material: Cycles' default volume shader, a Principled Volume with default values
-    (intern/cycles/scene/shader.cpp, "default_volume"). Other node setups and linked inputs are
-    not evaluated: warning + the socket's own value / the defaults."""
-    values = dict(PRINCIPLED_DEFAULTS)
-    node_tree = material_node_tree(material)
-    if node_tree is None:
-        return values
-    outputs = [n for n in node_tree.nodes
-               if n.bl_idname == "ShaderNodeOutputMaterial" and n.target in ("ALL", "CYCLES")]
-    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-    volume_socket = output.inputs.get("Volume") if output is not None else None
-    if volume_socket is None or not volume_socket.is_linked:
-        warnings.append(f"{label}: material '{material.name}' has no volume shader; Principled Volume defaults used")
-        return values
-    node = volume_socket.links[0].from_node
-    if node.bl_idname != "ShaderNodeVolumePrincipled":
-        warnings.append(f"{label}: volume shader '{node.name}' ({node.bl_idname}) is not supported yet; "
-                        "Principled Volume defaults used")
-        return values
-    for socket in node.inputs:
-        if socket.name not in values:
-            continue
-        if socket.name == "Emission Strength" and socket.is_linked and _attribute_source(socket):
-            # Cycles evaluates the Attribute node per lookup: strength = the grid's value.
-            values["Emission Strength Attribute"] = _attribute_source(socket)
-            continue
-        if socket.is_linked:
-            warnings.append(f"{label}: '{socket.name}' input is driven by nodes, which are not evaluated; "
-                            "its own value is used")
-        value = socket.default_value
-        values[socket.name] = value if isinstance(value, (str, float, int)) else tuple(value)[:3]
-    return values
-
-
-def grid_medium_from_volume(exported: ExportedVolume, warnings: list, **medium_kwargs) -> Optional[GridMedium]:
-    """A GridMedium for an exported Volume object and its material, with Cycles' conversions:
-    density x density grid, Color x colour grid, the object's density factor
-    (kernel/svm/closure.h svm_node_principled_volume; scene/object.cpp object_volume_density)."""
-    label = f"volume '{exported.object_name}'"
-    inputs = principled_volume_inputs(exported.material, warnings, label)
-    density_name = inputs["Density Attribute"]
-    density = exported.grids.get(density_name)
-    if density is None or density.data.ndim != 3:
-        warnings.append(f"{label}: density attribute grid '{density_name}' missing or not a float grid; skipped")
-        return None
-    factor = exported.density_factor  # Cycles' weight: mix weight (1) x object volume density
-    emission_color = np.asarray(inputs["Emission Color"], float)
-    emission = max(inputs["Emission Strength"], 0.0) * factor * emission_color  # `if (emission > 0)`
-    emission_grid = None
-
-    def aligned_float_grid(name, what):
-        grid = exported.grids.get(name)
-        if grid is None:
-            return None
-        if grid.data.ndim != 3:
-            warnings.append(f"{label}: {what} grid '{name}' is not a float grid; ignored")
-        elif grid.data.shape != density.data.shape or not np.allclose(grid.index_to_world, density.index_to_world):
-            warnings.append(f"{label}: {what} grid '{name}' is not on the density grid's voxels; ignored")
-        else:
-            return grid.data
-        return None
-
-    flame_name = inputs["Emission Strength Attribute"]
-    if flame_name:
-        # Emission Strength = the attribute (e.g. 'flame'); per voxel max(value, 0) x Emission Color.
-        emission = np.zeros(3)
-        flame = aligned_float_grid(flame_name, "emission strength")
-        if flame is None and flame_name not in exported.grids:
-            warnings.append(f"{label}: emission strength attribute '{flame_name}' has no grid: no emission (as Cycles)")
-        if flame is not None:
-            emission_grid = (np.maximum(flame, 0.0)[..., None] * (factor * emission_color)).astype(np.float32)
-
-    if inputs["Blackbody Intensity"] > 0:
-        # kernel/svm/closure.h: T = Temperature x max(temperature attribute, 0) when the grid exists,
-        # else Temperature; emission = tint x sigma/pi x mix(1, T^4, intensity) x blackbody(T).
-        # Per voxel, then interpolated: the expectation of Cycles' stochastic attribute lookup.
-        temperature = aligned_float_grid(inputs["Temperature Attribute"], "temperature")
-        if temperature is not None:
-            voxel_emission = factor * blackbody_emission(
-                inputs["Temperature"] * np.maximum(temperature, 0.0), inputs["Blackbody Intensity"],
-                inputs["Blackbody Tint"])
-            emission_grid = voxel_emission if emission_grid is None else emission_grid + voxel_emission
-            emission_grid = emission_grid.astype(np.float32)
-            # Outside the temperature grid's voxels T = 0 and Cycles emits sigma/pi x (1 - intensity)
-            # x blackbody(0 K): below 1e-14, left out.
-        else:
-            emission = emission + factor * blackbody_emission(
-                inputs["Temperature"], inputs["Blackbody Intensity"], inputs["Blackbody Tint"])
-
-    color_grid = None
-    color_name = inputs["Color Attribute"]
-    if color_name:
-        color = exported.grids.get(color_name)
-        if color is None or color.data.ndim != 4:
-            warnings.append(f"{label}: color attribute grid '{color_name}' missing or not a vector grid; ignored")
-        elif color.data.shape[:3] != density.data.shape or not np.allclose(color.index_to_world, density.index_to_world):
-            warnings.append(f"{label}: color grid '{color_name}' is not on the density grid's voxels; ignored")
-        else:
-            color_grid = color.data
-
-    common = dict(g=inputs["Anisotropy"], emission=emission, emission_grid=emission_grid, **medium_kwargs)
-    if color_grid is not None:
-        return GridMedium.with_color_grid(
-            exported.object_name, density.data, color_grid, density.index_to_world, color=inputs["Color"],
-            density_scale=inputs["Density"], absorption_color=inputs["Absorption Color"],
-            object_density_factor=exported.density_factor, **common)
-    sigma_s, sigma_a = principled_volume_coefficients(
-        inputs["Color"], inputs["Density"], inputs["Absorption Color"], exported.density_factor)
-    return GridMedium(exported.object_name, density.data, density.index_to_world, sigma_s, sigma_a, **common)

@@ -6,3 +6,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """Free Blender's data (fluid domains' Mantaflow runtimes) before the interpreter exits: the
+    bpy wheel's Mantaflow aborts the process at exit otherwise (tests/fluid_runtime.py)."""
+    if "bpy" in sys.modules:
+        sys.modules["bpy"].ops.wm.read_homefile(use_empty=True)

@@ -269,6 +269,77 @@ def relmse(test: np.ndarray, reference: np.ndarray, epsilon: float = RELMSE_EPSI
     return float(np.mean((x - y) ** 2 / (y ** 2 + epsilon)))
 
 
+@dataclass
+class BlockErrorTest:
+    """relMSE between two engines' block means against what their noise alone would give.
+
+    relmse: mean over blocks and channels of (a - b)^2 / (b^2 + epsilon), on block x block tile
+    means; expected: its expectation if the engines agree, mean of (var_a + var_b) / (b^2 + epsilon)
+    with each tile mean's variance summed from its pixels' (pixels are sampled independently);
+    tolerance: the 1 - alpha quantile of that sum, one chi-square(1) term per block (a tile's
+    channels come from the same paths: treated as fully correlated, which is conservative), by
+    Satterthwaite's scaled chi-square and Wilson-Hilferty. Differences confined to a region
+    (a thinner or denser part of a thick medium, a shadow) add up here while an image-wide mean
+    can stay put."""
+
+    block: int
+    relmse: float
+    expected: float
+    tolerance: float
+    blocks: int
+
+    @property
+    def passed(self) -> bool:
+        return self.relmse <= self.tolerance
+
+    def summary(self) -> dict:
+        return {"block": self.block, "relmse": self.relmse, "expected": self.expected,
+                "tolerance": self.tolerance, "blocks": self.blocks, "agree": self.passed}
+
+
+def block_relmse_test(a: RunStatistics, b: RunStatistics, block: int, alpha: float = 0.01,
+                      epsilon: float = RELMSE_EPSILON) -> BlockErrorTest:
+    """BlockErrorTest of engine a against engine b (b's block means are the reference)."""
+    if a.mean.shape != b.mean.shape:
+        raise ValueError(f"image sizes differ: {a.mean.shape} vs {b.mean.shape}")
+    h, w = a.mean.shape[:2]
+    hb, wb = h // block, w // block
+    if hb < 1 or wb < 1:
+        raise ValueError(f"a {block}x{block} block does not fit a {w}x{h} image")
+
+    def tiles(image):
+        return image[:hb * block, :wb * block].reshape(hb, block, wb, block, -1)
+
+    mean_a, mean_b = tiles(a.mean).mean(axis=(1, 3)), tiles(b.mean).mean(axis=(1, 3))
+    pixels = block * block
+    var_a = tiles(a.variance_of_mean).sum(axis=(1, 3)) / pixels ** 2
+    var_b = tiles(b.variance_of_mean).sum(axis=(1, 3)) / pixels ** 2
+    # The variances are estimated (pixels x (K - 1) degrees of freedom per tile): E[t^2] = nu / (nu - 2).
+    nu = pixels * min(a.degrees_of_freedom, b.degrees_of_freedom)
+    inflation = nu / (nu - 2.0) if nu > 2 else 3.0
+    scale = mean_b ** 2 + epsilon
+    terms = (mean_a - mean_b) ** 2 / scale
+    weights = (inflation * (var_a + var_b) / scale).sum(axis=-1).ravel()  # per block, channels summed
+    count = terms.size
+    total, squares = float(weights.sum()), float((weights ** 2).sum())
+    if total <= 0.0:  # no noise at all: only float rounding may differ
+        return BlockErrorTest(block, float(terms.mean()), 0.0, FLOAT32_RELATIVE_NOISE ** 2, hb * wb)
+    g, h_dof = squares / total, total ** 2 / squares
+    z = _normal_quantile(1.0 - alpha)
+    c = 2.0 / (9.0 * h_dof)
+    quantile = g * h_dof * max(1.0 - c + z * math.sqrt(c), 0.0) ** 3
+    return BlockErrorTest(block, float(terms.mean()), total / count, quantile / count, hb * wb)
+
+
+def _normal_quantile(p: float) -> float:
+    """z with P(Z <= z) = p, by bisection on erfc."""
+    lo, hi = -40.0, 40.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if 0.5 * math.erfc(-mid / math.sqrt(2.0)) < p else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
 def signed_relative_difference(a: np.ndarray, b: np.ndarray, epsilon: float = 1e-3) -> np.ndarray:
     """(H, W) (a - b) / mean(a, b) on the pixels' RGB average: > 0 where `a` is brighter."""
     ya, yb = rgb(a).mean(axis=2), rgb(b).mean(axis=2)

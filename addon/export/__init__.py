@@ -15,7 +15,7 @@ import volpath_native as vp
 
 from .. import compat
 from . import camera as camera_export
-from . import geometry, lights, shading
+from . import fluid, geometry, grid_media, lights, shading
 
 __all__ = ["export_scene", "export_settings"]
 
@@ -33,9 +33,9 @@ def export_scene(depsgraph, camera_object=None):
     camera = camera_export.export_camera(camera_object, reporter)
     film = camera_export.export_film(scene, reporter)
 
-    meshes, scene_lights, has_volumes = _export_instances(depsgraph, table, reporter)
-    if has_volumes:
-        meshes += _export_volume_objects(depsgraph, table, reporter)
+    meshes, scene_lights, grid_sources = _export_instances(depsgraph, table, reporter)
+    if grid_sources:
+        meshes += _export_grid_media(depsgraph, grid_sources, table, reporter)
     world = shading.export_world(compat.render_world(depsgraph.view_layer, scene), table)
 
     vp_scene = vp.Scene(camera=camera, film=film, meshes=meshes, materials=table.materials,
@@ -49,7 +49,7 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
     meshes: list[vp.Mesh] = []
     scene_lights = []
     triangulated: dict = {}  # evaluated mesh data -> LocalMesh (None: no triangles)
-    has_volumes = False
+    grid_sources = set()  # "volume" / "fluid": grid media exported by _export_grid_media
     material_override = depsgraph.view_layer.material_override
     for instance in depsgraph.object_instances:
         obj = instance.object
@@ -65,7 +65,10 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
                 scene_lights.append(light)
             continue
         if obj.type == "VOLUME":
-            has_volumes = True  # exported by _export_volume_objects
+            grid_sources.add("volume")
+            continue
+        if fluid.is_fluid_domain(obj):  # a volume in Cycles (blender/geometry.cpp): its box is not drawn
+            grid_sources.add("fluid")
             continue
         if obj.type not in geometry.GEOMETRY_TYPES:
             if obj.type in ("CURVES", "POINTCLOUD", "GPENCIL", "GREASEPENCIL"):
@@ -94,7 +97,7 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
         else:
             name = obj.name
         meshes.append(geometry.to_world(name, local, matrix, slot_materials))
-    return meshes, scene_lights, has_volumes
+    return meshes, scene_lights, grid_sources
 
 
 # Object > Visibility > Ray Visibility flags VolPath cannot honour (camera is honoured for lights).
@@ -115,20 +118,24 @@ def _warn_unsupported_visibility(obj, reporter):
             reporter.warn(f"object '{obj.name}': {label} is not supported; rendered as a normal object")
 
 
-def _export_volume_objects(depsgraph, table: shading.MaterialTable, reporter) -> list:
-    """Volume objects (OpenVDB grids) -> grid media, each inside its padded bounding box, an
-    invisible boundary mesh (as Cycles' volume bounds mesh). See addon/export_volume_grids.py."""
-    from .. import export_volume_grids as volume_grids  # reads grids with Blender's openvdb
-
+def _export_grid_media(depsgraph, sources: set, table: shading.MaterialTable, reporter) -> list:
+    """Volume objects (OpenVDB grids, addon/export_volume_grids.py) and fluid gas domains
+    (addon/export/fluid.py) -> grid media through one converter (grid_media.py), each inside its
+    padded bounding box, an invisible boundary mesh (as Cycles' volume bounds mesh)."""
     messages: list[str] = []
     meshes = []
-    try:
-        exported = volume_grids.export_volume_objects(depsgraph, messages)
-    except volume_grids.OpenVDBUnavailable as error:
-        reporter.warn(f"Volume objects are skipped: {error}")
-        return meshes
+    exported = []
+    if "volume" in sources:
+        from .. import export_volume_grids as volume_grids  # reads grids with Blender's openvdb
+
+        try:
+            exported += volume_grids.export_volume_objects(depsgraph, messages)
+        except volume_grids.OpenVDBUnavailable as error:
+            reporter.warn(f"Volume objects are skipped: {error}")
+    if "fluid" in sources:
+        exported += fluid.export_fluid_domains(depsgraph, messages)
     for volume in exported:
-        medium = volume_grids.grid_medium_from_volume(volume, messages)
+        medium = grid_media.grid_medium_from_volume(volume, messages)
         if medium is None:
             continue
         table.media.append(medium)

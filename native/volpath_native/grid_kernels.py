@@ -56,7 +56,7 @@ GridTables = namedtuple("GridTables", [
 STREAM_DIMENSIONS = 1 << 20
 # Tracking modes of _track, as numpy scalars: a Python int constant would be typed as a literal
 # and compile a separate copy of the tracker per mode.
-_FREE_FLIGHT, _TRANSMITTANCE = np.int64(0), np.int64(1)
+_FREE_FLIGHT, _TRANSMITTANCE, _RATIO = np.int64(0), np.int64(1), np.int64(2)
 #: G.flags entries.
 FLAG_MAJORANT, FLAG_MINORANT, FLAG_OVERFLOW = 0, 1, 2
 
@@ -235,8 +235,8 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
         scatter-vs-null chosen with the throughput (br, bg, bb) x albedo channel pdf:
         shade_volume.h volume_sample_channel_pdf / volume_scatter_probability).
     mode 1: residual ratio tracking (Novak et al. 2014), the cell minorant as control.
-    mode 2: plain ratio tracking against the majorant.
-    Returns (t, scattered, weight rgb, emission rgb); ratio tracking only fills the weight."""
+    mode 2: plain ratio tracking against the majorant, collecting emission as mode 0 does.
+    Returns (t, scattered, weight rgb, emission rgb); residual ratio tracking only fills the weight."""
     wr = wg = wb = 1.0
     er = eg = eb = 0.0
     t_event = t_max
@@ -317,6 +317,10 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                     if low < -_ABS_TOL:
                         _record(G, FLAG_MINORANT, min(str_, min(stg, stb)), max(mr, max(mg, mb)), x, y, z)
                 inv = 1.0 / rate
+                if mode == 2:  # E[sum of w E / rate over tentative collisions] = integral of T E
+                    er += wr * emr * inv
+                    eg += wg * emg * inv
+                    eb += wb * emb * inv
                 wr *= max(1.0 - qr * inv, 0.0)
                 wg *= max(1.0 - qg * inv, 0.0)
                 wb *= max(1.0 - qb * inv, 0.0)
@@ -366,6 +370,17 @@ def grid_transmittance(G, ox, oy, oz, dx, dy, dz, t_max, key, stream):
     tracking with the cell minorant as control (exact where the density is constant)."""
     r = _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, _TRANSMITTANCE, 1.0, 1.0, 1.0)
     return r[2], r[3], r[4]
+
+
+@stage_kernel
+def grid_attenuation(G, ox, oy, oz, dx, dy, dz, t_max, key, stream):
+    """Ratio tracking over [0, t_max] along a unit ray for paths that may no longer scatter:
+    (wr, wg, wb, er, eg, eb), an unbiased transmittance estimate and the emission to add as
+    L += beta_in x emission. Cycles keeps adding volume emission along such "terminate after
+    transparent" paths (kernel/integrator/shade_volume.h volume_integrate_step_scattering: the
+    emission is summed before the absorption-only early return)."""
+    r = _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, _RATIO, 1.0, 1.0, 1.0)
+    return r[2], r[3], r[4], r[5], r[6], r[7]
 
 
 # ---------------------------------------------------------------------------------------------

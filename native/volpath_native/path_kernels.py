@@ -32,7 +32,7 @@ from .bsdfs.closures import (LABEL_DIFFUSE, LABEL_TRANSMIT, LABEL_TRANSPARENT, s
                              surface_eval, surface_sample, surface_transparency)
 from .camera import camera_ray1
 from .film import filter_offset1
-from .grid_kernels import STREAM_DIMENSIONS, grid_free_flight, grid_scattering, grid_transmittance
+from .grid_kernels import STREAM_DIMENSIONS, grid_attenuation, grid_free_flight, grid_scattering, grid_transmittance
 from .jit import inline_stage_kernel, stage_kernel
 from .light_kernels import (escaped_emission_mis, lamp_crossing, light_has_position, light_position, sample_light,
                      select_light, triangle_emission)
@@ -699,9 +699,16 @@ def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st
     """Free flight of path p inside grid volumes; returns (beta, scattered, t, event g, grid event)."""
     key = K[p]
     stream0 = grid_stream(iteration, P_FREE_FLIGHT, 0, 0)
-    if tat:  # attenuation only
-        tr = _mul3(transmittance3(st, t_seg), grids_transmittance(S, GR, C, p, o, d, t_seg, key, stream0))
-        return _mul3(beta, tr), False, np.inf, g, False
+    if tat:  # attenuation and emission only (Cycles adds volume emission on these paths too)
+        w = (1.0, 1.0, 1.0)
+        for v in range(S.vol_grid.shape[0]):
+            gi = S.vol_grid[v]
+            if C[p, v] > 0 and gi >= 0:
+                w0, w1, w2, e0, e1, e2 = grid_attenuation(GR[gi], o[0], o[1], o[2], d[0], d[1], d[2], t_seg, key,
+                                                          stream0 + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS))
+                _add_radiance(L, pid, _mul3(_mul3(beta_in, w), (e0, e1, e2)))
+                w = _mul3(w, (w0, w1, w2))
+        return _mul3(_mul3(beta, w), transmittance3(st, t_seg)), False, np.inf, g, False
     hom = _max3(ss) > 0.0
     pc = (0.0, 0.0, 0.0)
     ts = np.inf
