@@ -441,6 +441,10 @@ class Scene:
     def validate(self) -> list[str]:
         """Raise SceneError for unusable input; fix up and return warnings for recoverable input."""
         warnings: list[str] = []
+        for what in ("width", "height"):
+            value = getattr(self.film, what)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise SceneError(f"film {what} must be an integer, got {value!r}")
         if self.film.width < 1 or self.film.height < 1:
             raise SceneError(f"film resolution {self.film.width}x{self.film.height} is empty")
         if self.film.filter not in FILTERS:
