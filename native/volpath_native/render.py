@@ -15,6 +15,7 @@ import numpy as np
 from .camera import crop_window
 from .integrator import Cancelled, Integrator
 from .scene import Scene, SceneError
+from .scene_schema import check_settings
 
 
 @dataclass
@@ -115,12 +116,7 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
     with the rounds completed so far (every pixel holds the same number of samples)."""
     warnings = list(scene.validate())
     st = scene.settings
-    if st.samples < 1:
-        raise SceneError(f"samples must be at least 1, got {st.samples}")
-    if st.volume_sampling not in ("mis", "distance", "equiangular"):
-        raise SceneError(f"unknown volume sampling '{st.volume_sampling}'")
-    if st.parallelism not in ("threads", "processes"):
-        raise SceneError(f"unknown parallelism '{st.parallelism}' (threads or processes)")
+    check_settings(st)
     check_film_memory(scene.film)
     start = time.perf_counter()
     integrator = Integrator(scene)
@@ -130,6 +126,11 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
     film = _Film(n_pix)
     threads = _thread_count(st.threads)
     batch = max(256, int(st.batch_size))
+    batch_limit = physical_memory() // (4 * threads * PATH_BYTES) or batch
+    if batch > batch_limit:
+        warnings.append(f"batch size {batch} would need {batch * threads * PATH_BYTES / 2 ** 30:.3g} GiB of path "
+                        f"state; reduced to {batch_limit} (a quarter of this machine's memory)")
+        batch = max(256, batch_limit)
     # A round is at least one sample everywhere and roughly a batch per thread.
     per_round = max(1, min(st.samples, (threads * batch) // max(n_pix, 1)))
     stats = {k: 0 for k in _COUNTERS}
@@ -223,6 +224,9 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
                         warnings=warnings, cancelled=cancelled, crop_offset=(x0, y0))
 
 
+# Upper bound of what a path in flight holds (integrator._Buffers: state, rays, two shadow-queue
+# entries, Embree hits, radiance).
+PATH_BYTES = 1024
 # What the film holds per rendered pixel at the end of a render: float64 sums, squares and count,
 # the float64 mean, the float32 RGBA image and RGB variance.
 FILM_BYTES_PER_PIXEL = (3 + 3 + 1 + 3) * 8 + (4 + 3) * 4
@@ -236,16 +240,23 @@ def physical_memory() -> int:
         return 0
 
 
-def check_film_memory(film) -> None:
-    """Refuse, before anything is allocated, a film whose buffers would not fit in this machine's
-    memory (SceneError naming the resolution)."""
+def film_memory_problem(film):
+    """Why a film's buffers would not fit in this machine's memory, or None; computed from the
+    resolution before anything is allocated."""
     _, _, width, height = crop_window(film)
     needed = width * height * FILM_BYTES_PER_PIXEL
     memory = physical_memory()
     if memory and needed > memory // 2:
-        raise SceneError(f"film {film.width}x{film.height}: rendering {width}x{height} pixels needs "
-                         f"{needed / 2 ** 30:.3g} GiB of film buffers, more than half of this machine's "
-                         f"{memory / 2 ** 30:.3g} GiB of memory; lower the resolution")
+        return (f"{width}x{height} pixels need {needed / 2 ** 30:.3g} GiB of film buffers, more than half of "
+                f"this machine's {memory / 2 ** 30:.3g} GiB of memory; lower the resolution")
+    return None
+
+
+def check_film_memory(film) -> None:
+    """SceneError naming the resolution if film_memory_problem finds one."""
+    problem = film_memory_problem(film)
+    if problem:
+        raise SceneError(f"film {film.width}x{film.height}: {problem}")
 
 
 def _guard_warnings(integrator, stats, budget) -> list:
