@@ -33,15 +33,20 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         except ImportError as error:  # e.g. the extension's wheels did not install
             self._fail(f"VolPath's renderer could not be loaded ({error}); reinstall the add-on")
             return
-        from .export import export_scene
+        from .export import ExportCancelled, export_scene
 
         if not self._prepare_kernels(vp):
             return
         started = time.perf_counter()
         try:
-            scene, warnings = export_scene(depsgraph, camera_object=self.camera_override)
+            scene, warnings = export_scene(depsgraph, camera_object=self.camera_override, cancel=self.cancel_requested)
             _, _, width, height = _crop_window(scene.film)
+        except ExportCancelled:
+            self.update_stats("", "VolPath | cancelled while exporting")
+            return
         except vp.SceneError as error:
+            for message in getattr(error, "warnings", []):  # the scene's other problems, also named
+                self.report({"WARNING"}, message)
             self._fail(str(error))
             return
         except Exception as error:  # an exporter bug must not take Blender down

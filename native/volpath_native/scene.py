@@ -228,10 +228,13 @@ class Mesh:
         return warnings
 
     def open_edge_count(self, triangle_mask: Optional[np.ndarray] = None) -> int:
-        """Edges used by exactly one (non-degenerate) triangle: 0 for a closed (watertight) mesh."""
+        """Edges used by exactly one triangle once coincident vertices are merged: 0 for a closed
+        (watertight) surface, also when it is split at seams (extruded text, Edge Split, UV seams)."""
         tris = self.triangles if triangle_mask is None else self.triangles[triangle_mask]
         if len(tris) == 0:
             return 0
+        _, weld = np.unique(self.vertices, axis=0, return_inverse=True)
+        tris = weld.reshape(-1)[tris]
         edges = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
         _, counts = np.unique(edges, axis=0, return_counts=True)
         return int(np.count_nonzero(counts == 1))
