@@ -26,8 +26,11 @@ def export_scene(depsgraph, camera_object=None, cancel=None):
     A SceneError carries the warnings collected before it in `error.warnings`."""
     reporter = shading.Reporter()
     try:
-        vp_scene = _export(depsgraph, camera_object, reporter, cancel)
-        validation_warnings = vp_scene.validate()  # raises SceneError for unusable input
+        # Invalid numbers are named and replaced by the exporter itself (export/validate.py):
+        # numpy's own floating-point warnings would only repeat them, unnamed.
+        with np.errstate(all="ignore"):
+            vp_scene = _export(depsgraph, camera_object, reporter, cancel)
+            validation_warnings = vp_scene.validate()  # raises SceneError for unusable input
     except vp.SceneError as error:
         error.warnings = list(reporter.messages)  # what else was wrong, for the user to see too
         raise
@@ -151,13 +154,18 @@ def _export_volume_objects(depsgraph, table: shading.MaterialTable, reporter) ->
         reporter.warn(f"Volume objects are skipped: {error}")
         return meshes
     for volume in exported:
+        material = f"material '{volume.material.name}'" if volume.material is not None else "no material"
+        problems, notes = validate.volume_material_problems(volume.material)
+        if problems:  # Volume objects read their material's sockets themselves: checked here
+            messages.append(f"volume '{volume.object_name}' ({material}): {'; '.join(problems)}; "
+                            "the object is not rendered")
+            continue
+        for note in notes:
+            messages.append(f"volume '{volume.object_name}' ({material}): {note}; rendered as that number")
         try:
             medium = volume_grids.grid_medium_from_volume(volume, messages)
-        except vp.SceneError as error:  # e.g. a non-finite Principled Volume input
-            problems = validate.volume_material_problems(volume.material)
-            material = f"material '{volume.material.name}'" if volume.material is not None else "no material"
-            messages.append(f"volume '{volume.object_name}' ({material}): "
-                            f"{'; '.join(problems) if problems else error}; the object is not rendered")
+        except vp.SceneError as error:
+            messages.append(f"volume '{volume.object_name}' ({material}): {error}; the object is not rendered")
             continue
         if medium is None:
             continue

@@ -27,7 +27,7 @@ def _describe(value) -> str:
     values = np.atleast_1d(np.asarray(value, dtype=np.float64))
     if np.isnan(values).any():
         return "NaN"
-    return "infinite"
+    return "infinite" if np.isinf(values).any() else "largest-float (inf typed in)"
 
 
 def finite_socket_value(value, warn, socket_name: str):
@@ -46,12 +46,13 @@ def finite_socket_value(value, warn, socket_name: str):
 
 
 def finite_transform(obj, matrix: np.ndarray, reporter) -> bool:
-    """False (and a warning naming the object) when its world matrix is not finite."""
-    if np.all(np.isfinite(matrix)):
+    """False (and a warning naming the object) when its world matrix is not finite or reaches
+    FLT_MAX (where Blender stores an inf typed into Location or Scale)."""
+    if np.all(np.abs(matrix) < FLT_MAX):
         return True
     fields = [name for name in ("location", "rotation_euler", "scale", "delta_location", "delta_rotation_euler",
                                 "delta_scale")
-              if hasattr(obj, name) and not all(math.isfinite(v) for v in getattr(obj, name))]
+              if hasattr(obj, name) and not all(abs(v) < FLT_MAX for v in getattr(obj, name))]
     where = f" (non-finite {', '.join(fields)})" if fields else " (from a parent, constraint or driver)"
     reporter.warn(f"object '{obj.name}': its transform (matrix_world) has {_describe(matrix)} values{where}; "
                   "the object is not rendered")
@@ -69,7 +70,9 @@ def finite_mesh(mesh: vp.Mesh, object_name: str, reporter):
     if bad.all():
         return None
     keep = ~bad
-    return vp.Mesh(mesh.name, mesh.vertices, mesh.triangles[keep], mesh.material_ids[keep],
+    vertices = mesh.vertices.copy()
+    vertices[bad_vertex] = 0.0  # no triangle uses them any more
+    return vp.Mesh(mesh.name, vertices, mesh.triangles[keep], mesh.material_ids[keep],
                    None if mesh.corner_normals is None else mesh.corner_normals[keep])
 
 
@@ -79,7 +82,9 @@ def checked_light(export, obj, reporter):
     try:
         light = export()
     except vp.SceneError as error:
-        reporter.warn(f"light '{obj.name}': {error}; the light is not rendered")
+        text = str(error)
+        reporter.warn(f"{text if text.startswith(f'light {obj.name!r}') else f'light {obj.name!r}: {text}'}; "
+                      "the light is not rendered")
         return None
     if light is None:
         return None
@@ -88,7 +93,7 @@ def checked_light(export, obj, reporter):
         reporter.warn(f"light '{obj.name}': non-finite size, angle or spot setting; the light is not rendered")
         return None
     power = light.irradiance if isinstance(light, vp.SunLight) else light.power
-    if np.any(np.abs(power) > FLT_MAX):
+    if np.any(np.abs(power) >= FLT_MAX):
         # Cycles' float32 strength is inf there, and every contribution of the light is dropped
         reporter.warn(f"light '{obj.name}': power/strength {np.round(power, 6).tolist()} is beyond float32's "
                       "range (Strength x colour x 2^exposure); the light is not rendered (as in Cycles, where it "
@@ -103,6 +108,11 @@ def checked_light(export, obj, reporter):
             light.irradiance = power
         else:
             light.power = power
+    try:
+        vp.scene.validate_light(light)  # e.g. a zero-size area light: no light, as in Cycles
+    except vp.SceneError as error:
+        reporter.warn(f"{error}; the light is not rendered")
+        return None
     return light
 
 
@@ -149,25 +159,38 @@ def close_volume_boundaries(meshes: list, materials: list, reporter) -> None:
         mesh.material_ids = ids
 
 
-def volume_material_problems(material) -> list:
-    """"node 'N' input 'I'" for every non-finite input of a Volume object's material's volume nodes."""
+def volume_material_problems(material) -> tuple:
+    """(problems, notes): "node 'N' input 'I' is NaN" for every non-finite input of the nodes
+    feeding the material's active Volume output, and "... is the largest float" for FLT_MAX
+    (Volume objects read these sockets themselves, outside NodeReader)."""
     from .. import compat
 
     tree = compat.material_node_tree(material)
-    if tree is None:
-        return []
-    problems = []
-    for node in tree.nodes:
+    output = tree.get_output_node("CYCLES") if tree is not None else None
+    if output is None:
+        return [], []
+    problems, notes, seen = [], [], set()
+    pending = [link.from_node for link in output.inputs["Volume"].links]
+    while pending:
+        node = pending.pop()
+        if node.name in seen:
+            continue
+        seen.add(node.name)
         for socket in node.inputs:
+            pending += [link.from_node for link in socket.links]
             value = getattr(socket, "default_value", None)
+            if value is None or isinstance(value, str):
+                continue
             try:
-                array = np.asarray(value[:] if hasattr(value, "__len__") and not isinstance(value, str) else value,
-                                   dtype=np.float64)
+                array = np.asarray(value[:] if hasattr(value, "__len__") else value, dtype=np.float64)
             except (TypeError, ValueError):
                 continue
             if not np.all(np.isfinite(array)):
                 problems.append(f"node '{node.name}' input '{socket.name}' is {_describe(array)}")
-    return problems
+            elif np.any(np.abs(array) >= FLT_MAX):
+                notes.append(f"node '{node.name}' input '{socket.name}' is the largest float (what Blender "
+                             "stores for an inf typed in)")
+    return problems, notes
 
 
 def check_camera(camera_object) -> None:

@@ -483,13 +483,14 @@ class Scene:
                         f"mesh '{mesh.name}' bounds a medium but is not closed ({open_edges} open edges): "
                         "rays would enter the medium and never leave it")
         for light in self.lights:
-            warnings += _validate_light(light)
+            warnings += validate_light(light)
         if not self.meshes and not self.lights and not np.any(self.world.background > 0):
             warnings.append("the scene is empty: nothing emits light, the image is black")
         return warnings
 
 
-def _validate_light(light) -> list[str]:
+def validate_light(light) -> list[str]:
+    """SceneError for a light that cannot be rendered, warnings for one that renders as nothing."""
     name = f"light '{light.name}'"
     power = light.irradiance if isinstance(light, SunLight) else light.power
     if np.any(power < 0):

@@ -83,6 +83,14 @@ def test_negative_world_strength_renders_black_with_a_warning(scene):
     assert np.all(native.world.background == 0.0)
 
 
+def test_zero_size_area_light_is_named_and_skipped(scene):
+    lit_box(scene)
+    add_light(scene, "Slit", "AREA", 100.0, size=0.0)
+    native, messages = export_quietly(scene)
+    assert any("light 'Slit': area light has zero size" in m for m in messages), messages
+    assert [light.name for light in native.lights] == ["Lamp"]
+
+
 def test_negative_and_overflowing_lights_are_named(scene):
     lit_box(scene)
     add_light(scene, "Dark", "POINT", -100.0, location=(0, -2, 1))
@@ -131,14 +139,18 @@ def test_nan_camera_is_an_error_naming_the_camera(scene):
         export_quietly(scene)
 
 
-def test_a_failing_export_still_reports_every_other_problem(scene, capfd):
+def test_a_failing_export_still_reports_every_other_problem(scene, capfd, monkeypatch):
     """A scene with many defects: the one that stops the render is the error, and the others
     (an unsupported Toon BSDF, an open volume mesh, a NaN rotation) are reported by name too."""
+    import volpath_native as vp
+
+    def refuse(self):
+        raise vp.SceneError("light 'Slit': area light has zero size")
+    monkeypatch.setattr(vp.Scene, "validate", refuse)  # an error found after everything was read
     add_mesh(scene, "Toon", material=node_material("ToonPaint", surface=shader("ShaderNodeBsdfToon")))
     fog = node_material("Fog", volume=shader("ShaderNodeVolumePrincipled"))
     add_mesh(scene, "OpenFog", material=fog, vertices=CUBE_VERTICES, faces=CUBE_FACES[:-1], location=(3, 0, 0))
     add_mesh(scene, "Tilted", location=(-3, 0, 0)).rotation_euler = (0.0, NAN, 0.0)
-    add_light(scene, "Slit", "AREA", 100.0, size=0.0)  # a zero-size area light: the error
     try:
         bpy.ops.render.render()
     except RuntimeError:  # Blender raises the engine's error_set message
