@@ -98,11 +98,20 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
     def _prepare_kernels(self, vp) -> bool:
         """Compile the renderer's numba kernels, or load them from numba's on-disk cache, once per
         Blender session and before the render clock starts. Compiling after an install takes tens
-        of seconds, hence the status text. Returns False (error reported) if that fails."""
+        of seconds, hence the status text. Returns False if cancelled or (error reported) failed."""
         global _kernels_ready
         if _kernels_ready:
             return True
-        self.update_stats("", "VolPath | Compiling render kernels (first render only)")
+        from volpath_native import kernel_compile
+
+        if not kernel_compile.kernels_cached():
+            # Compiling takes ~100 s and numba cannot be interrupted: compile in a child process
+            # that Esc can kill (kernel_compile); then load what it cached.
+            self.update_stats("", "VolPath | Compiling render kernels (first render only; Esc cancels)")
+            if kernel_compile.compile_in_child(self.cancel_requested) is False:
+                self.update_stats("", "VolPath | cancelled while compiling the render kernels")
+                return False
+        self.update_stats("", "VolPath | Loading render kernels")
         try:
             vp.warm_up()
         except Exception as error:

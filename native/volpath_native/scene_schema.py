@@ -256,7 +256,7 @@ def check_header(header, arrays: dict, where: str) -> None:
         if not isinstance(light, dict):
             _fail(where, path, f"expected an object, got {_short(light)}")
         kind = light.get("type")
-        if kind not in LIGHT_TYPES:
+        if not isinstance(kind, str) or kind not in LIGHT_TYPES:
             message = "missing" if kind is None else f"unknown light type {kind!r}"
             _fail(where, f"{path}.type", f"{message} (expected one of: {', '.join(LIGHT_TYPES)})")
         cls = LIGHT_TYPES[kind]

@@ -10,6 +10,7 @@ import io
 import json
 import math
 import time
+import warnings
 import zipfile
 from dataclasses import dataclass, field
 
@@ -120,7 +121,9 @@ def mutate(scene_bytes: bytes, mutations) -> bytes:
             if kind == "array_delete":
                 del arrays[name]
             elif kind == "array_dtype":
-                arrays[name] = arrays[name].astype(m[2])
+                with warnings.catch_warnings():  # complex -> real: the point of the mutation
+                    warnings.simplefilter("ignore")
+                    arrays[name] = arrays[name].astype(m[2])
             elif kind == "array_shape":
                 arrays[name] = np.zeros(m[2], arrays[name].dtype)
             elif kind == "array_values" and arrays[name].size:

@@ -96,6 +96,8 @@ MALFORMED = {
                      "meshes[0].vertices: array 'mesh0.vertices' has shape (8, 2)"),
     "missing mesh array": (lambda h, a: a.pop("mesh2.material_ids"), "meshes[2].material_ids: array 'mesh2.material_ids' is missing"),
     "light without type": (lambda h, a: h["lights"][0].pop("type"), "lights[0].type: missing"),
+    # found by the fuzz suite: an unhashable type value raised TypeError
+    "light type a list": (_set(["lights", 1, "type"], [1, 2]), "lights[1].type: unknown light type [1, 2]"),
 }
 
 
