@@ -95,7 +95,14 @@ def _parent(doc, path):
 
 
 def mutate(scene_bytes: bytes, mutations) -> bytes:
-    """Apply the mutations to a saved scene (archive-level ones last)."""
+    """Apply the mutations to a saved scene (archive-level ones last). numpy's cast warnings are
+    what the mutations are for: silenced."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return _mutate(scene_bytes, mutations)
+
+
+def _mutate(scene_bytes: bytes, mutations) -> bytes:
     with np.load(io.BytesIO(scene_bytes), allow_pickle=False) as data:
         arrays = {k: data[k] for k in data.files}
     header = json.loads(bytes(arrays.pop("scene.json")).decode())
@@ -121,9 +128,7 @@ def mutate(scene_bytes: bytes, mutations) -> bytes:
             if kind == "array_delete":
                 del arrays[name]
             elif kind == "array_dtype":
-                with warnings.catch_warnings():  # complex -> real: the point of the mutation
-                    warnings.simplefilter("ignore")
-                    arrays[name] = arrays[name].astype(m[2])
+                arrays[name] = arrays[name].astype(m[2])
             elif kind == "array_shape":
                 arrays[name] = np.zeros(m[2], arrays[name].dtype)
             elif kind == "array_values" and arrays[name].size:

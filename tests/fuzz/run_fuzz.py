@@ -25,6 +25,8 @@ def run(name, strategy, check, count, seed, log):
     from hypothesis import HealthCheck, Phase, given, settings
     from hypothesis import seed as hypothesis_seed
 
+    if count < 1:
+        return {}, None
     figures = collections.Counter()
     times = []
     failure = {}
