@@ -5,7 +5,7 @@ PY         := $(VENV)/bin/python
 BLENDER    ?= $(shell command -v blender 2>/dev/null)
 OUT        ?= out/demo
 
-.PHONY: venv demo test test-native test-addon test-compare extension install-blender bench clean
+.PHONY: venv demo test test-native test-addon test-compare fuzz extension install-blender bench clean
 
 venv: $(VENV)/.stamp
 $(VENV)/.stamp: requirements.txt native/pyproject.toml
@@ -30,6 +30,13 @@ test-addon: venv
 
 test-compare: venv
 	$(PY) -m pytest -q tests/compare
+
+# The long fuzz run: random Blender scenes and .vpscene files through the invariants of
+# tests/fuzz (figures in out/fuzz/fuzz.log and fuzz.json), then 100 random cancels of native and
+# F12 renders. `make test` runs a short version of each.
+fuzz: venv
+	$(PY) tests/fuzz/run_fuzz.py --scenes 1000 --files 3000 --out out/fuzz
+	VOLPATH_RANDOM_CANCELS=100 $(PY) -m pytest -q -s tests/native/test_reliability.py tests/addon/test_cancel.py -k random_cancels
 
 extension: venv
 	$(PY) addon/build_extension.py build

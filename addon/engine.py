@@ -33,15 +33,20 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         except ImportError as error:  # e.g. the extension's wheels did not install
             self._fail(f"VolPath's renderer could not be loaded ({error}); reinstall the add-on")
             return
-        from .export import export_scene
+        from .export import ExportCancelled, export_scene
 
         if not self._prepare_kernels(vp):
             return
         started = time.perf_counter()
         try:
-            scene, warnings = export_scene(depsgraph, camera_object=self.camera_override)
+            scene, warnings = export_scene(depsgraph, camera_object=self.camera_override, cancel=self.cancel_requested)
             _, _, width, height = _crop_window(scene.film)
+        except ExportCancelled:
+            self.update_stats("", "VolPath | cancelled while exporting")
+            return
         except vp.SceneError as error:
+            for message in getattr(error, "warnings", []):  # the scene's other problems, also named
+                self.report({"WARNING"}, message)
             self._fail(str(error))
             return
         except Exception as error:  # an exporter bug must not take Blender down
@@ -93,11 +98,20 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
     def _prepare_kernels(self, vp) -> bool:
         """Compile the renderer's numba kernels, or load them from numba's on-disk cache, once per
         Blender session and before the render clock starts. Compiling after an install takes tens
-        of seconds, hence the status text. Returns False (error reported) if that fails."""
+        of seconds, hence the status text. Returns False if cancelled or (error reported) failed."""
         global _kernels_ready
         if _kernels_ready:
             return True
-        self.update_stats("", "VolPath | Compiling render kernels (first render only)")
+        from volpath_native import kernel_compile
+
+        if not kernel_compile.kernels_cached():
+            # Compiling takes ~100 s and numba cannot be interrupted: compile in a child process
+            # that Esc can kill (kernel_compile); then load what it cached.
+            self.update_stats("", "VolPath | Compiling render kernels (first render only; Esc cancels)")
+            if kernel_compile.compile_in_child(self.cancel_requested) is False:
+                self.update_stats("", "VolPath | cancelled while compiling the render kernels")
+                return False
+        self.update_stats("", "VolPath | Loading render kernels")
         try:
             vp.warm_up()
         except Exception as error:

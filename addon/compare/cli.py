@@ -195,6 +195,7 @@ def print_summary(result) -> None:
     v, c = result.volpath, result.cycles
     print(f"VolPath: {v.samples_per_pixel} spp in {v.seconds:.2f} s ({v.spp_per_second:.1f} spp/s); "
           f"Cycles: {c.samples_per_pixel} spp in {c.seconds:.2f} s ({c.spp_per_second:.1f} spp/s)")
+    print(f"VolPath kernels were compiled or loaded in {v.warm_up_seconds:.2f} s before timing (not counted)")
     print("mean ratio VolPath/Cycles R/G/B: " + " ".join(f"{r:.4f}" for r in agreement.means.ratio)
           + f"  (means agree: {'yes' if agreement.means.passed else 'NO'})")
     print(f"pixels passing the Sidak-corrected t-test: {100 * agreement.pixel.fraction_passed:.2f}%  "

@@ -51,6 +51,7 @@ def markdown_summary(report: dict) -> str:
         f"{_fmt(stats['channel_mean_standard_error_b'], 2)} |",
         f"| samples per pixel (total) | {engines['volpath']['samples_per_pixel']} | {engines['cycles']['samples_per_pixel']} |",
         f"| render time (s) | {engines['volpath']['seconds']:.2f} | {engines['cycles']['seconds']:.2f} |",
+        f"| warm-up before timing (s) | {engines['volpath'].get('warm_up_seconds', 0.0):.2f} (kernels) | - |",
         f"| samples per pixel per second | {engines['volpath']['spp_per_second']:.1f} | {engines['cycles']['spp_per_second']:.1f} |",
     ]
     reference = report.get("reference")

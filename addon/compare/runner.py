@@ -57,6 +57,7 @@ class EngineResult:
     name: str
     runs: list
     statistics: metrics.RunStatistics
+    warm_up_seconds: float = 0.0  # kernels compiled or loaded before the timed runs (not in `seconds`)
 
     @property
     def samples_per_pixel(self) -> int:
@@ -78,6 +79,7 @@ class EngineResult:
             "seconds": self.seconds,
             "seconds_per_run": [run.seconds for run in self.runs],
             "engine_render_seconds": float(sum(run.render_seconds for run in self.runs)),
+            "warm_up_seconds": self.warm_up_seconds,
             "spp_per_second": self.spp_per_second,
             "pixel_samples_per_second": self.spp_per_second * w * h,
         }
@@ -152,6 +154,8 @@ def compare_scene(scene, options: CompareOptions, out_dir=None, progress: Option
         film = native_scene.film
         reference_image = read_reference(options.reference, _film_shape(film))
     bar.step("exported")
+    bar.report("VolPath: compiling or loading its kernels (not timed)")
+    warm_up_seconds = volpath_engine.warm_up()  # before the clock: see volpath_engine.warm_up
     bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
     equal_time = options.mode == "equal-time"
     per_run_seconds = options.seconds / options.runs if equal_time else 0.0
@@ -166,7 +170,8 @@ def compare_scene(scene, options: CompareOptions, out_dir=None, progress: Option
         time_limit=per_run_seconds, resolution=options.resolution, cancel=cancel,
         progress=lambda k, n: bar.step(f"Cycles run {k}/{n}"))
 
-    volpath = EngineResult("VolPath", volpath_runs, metrics.run_statistics([r.image for r in volpath_runs]))
+    volpath = EngineResult("VolPath", volpath_runs, metrics.run_statistics([r.image for r in volpath_runs]),
+                           warm_up_seconds=warm_up_seconds)
     cycles = EngineResult("Cycles", cycles_runs, metrics.run_statistics([r.image for r in cycles_runs]))
     if volpath.statistics.mean.shape != cycles.statistics.mean.shape:
         raise RuntimeError(f"VolPath rendered {volpath.statistics.mean.shape[:2]} pixels but Cycles "

@@ -27,6 +27,15 @@ class VolPathRun:
     variance: Optional[np.ndarray] = None  # the renderer's own per-pixel variance of the mean
 
 
+def warm_up() -> float:
+    """Compile VolPath's kernels, or load them from the on-disk cache; returns the seconds it took.
+    The comparison calls this before any timed run: a first render after an install would otherwise
+    count ~100 s of compiling as render time."""
+    from volpath_native import warm_up as compile_kernels
+
+    return float(compile_kernels())
+
+
 def export(scene, resolution: Optional[tuple] = None):
     """The scene as VolPath's native model (+ exporter warnings), at an optional resolution."""
     from ..export import export_scene  # the add-on's exporter; relative: works as an extension too

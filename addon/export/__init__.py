@@ -15,43 +15,64 @@ import volpath_native as vp
 
 from .. import compat
 from . import camera as camera_export
-from . import fluid, geometry, grid_media, lights, shading
+from . import fluid, geometry, grid_media, lights, shading, validate
 
-__all__ = ["export_scene", "export_settings"]
+__all__ = ["export_scene", "export_settings", "ExportCancelled"]
 
 
-def export_scene(depsgraph, camera_object=None):
+def export_scene(depsgraph, camera_object=None, cancel=None):
     """Returns (volpath_native.Scene, warnings: list[str]). camera_object overrides scene.camera
-    (RenderEngine.camera_override)."""
-    scene = depsgraph.scene
+    (RenderEngine.camera_override). cancel() is polled between objects: ExportCancelled when true.
+    A SceneError carries the warnings collected before it in `error.warnings`."""
     reporter = shading.Reporter()
+    try:
+        # Invalid numbers are named and replaced by the exporter itself (export/validate.py):
+        # numpy's own floating-point warnings would only repeat them, unnamed.
+        with np.errstate(all="ignore"):
+            vp_scene = _export(depsgraph, camera_object, reporter, cancel)
+            validation_warnings = vp_scene.validate()  # raises SceneError for unusable input
+    except vp.SceneError as error:
+        error.warnings = list(reporter.messages)  # what else was wrong, for the user to see too
+        raise
+    return vp_scene, reporter.messages + validation_warnings
+
+
+class ExportCancelled(Exception):
+    """cancel() became true during the export."""
+
+
+def _export(depsgraph, camera_object, reporter, cancel):
+    scene = depsgraph.scene
     table = shading.MaterialTable(reporter)
 
     camera_object = camera_object or scene.camera
     if camera_object is not None:
         camera_object = camera_object.evaluated_get(depsgraph)
+        if camera_object.type == "CAMERA":
+            validate.check_camera(camera_object)
     camera = camera_export.export_camera(camera_object, reporter)
     film = camera_export.export_film(scene, reporter)
 
-    meshes, scene_lights, grid_sources = _export_instances(depsgraph, table, reporter)
+    meshes, scene_lights, grid_sources = _export_instances(depsgraph, table, reporter, cancel)
     if grid_sources:
         meshes += _export_grid_media(depsgraph, grid_sources, table, reporter)
-    world = shading.export_world(compat.render_world(depsgraph.view_layer, scene), table)
+    validate.close_volume_boundaries(meshes, table.materials, reporter)
+    world_datablock = compat.render_world(depsgraph.view_layer, scene)
+    world = validate.world_background(shading.export_world(world_datablock, table), world_datablock, reporter)
 
-    vp_scene = vp.Scene(camera=camera, film=film, meshes=meshes, materials=table.materials,
-                        media=table.media, lights=scene_lights, world=world,
-                        settings=export_settings(scene))
-    validation_warnings = vp_scene.validate()  # raises SceneError for unusable input
-    return vp_scene, reporter.messages + validation_warnings
+    return vp.Scene(camera=camera, film=film, meshes=meshes, materials=table.materials,
+                    media=table.media, lights=scene_lights, world=world, settings=export_settings(scene))
 
 
-def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
+def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=None):
     meshes: list[vp.Mesh] = []
     scene_lights = []
     triangulated: dict = {}  # evaluated mesh data -> LocalMesh (None: no triangles)
     grid_sources = set()  # "volume" / "fluid": grid media exported by _export_grid_media
     material_override = depsgraph.view_layer.material_override
     for instance in depsgraph.object_instances:
+        if cancel is not None and cancel():
+            raise ExportCancelled()
         obj = instance.object
         if instance.show_particles and any(system.settings.type == "HAIR" for system in obj.particle_systems):
             reporter.warn(f"object '{obj.name}': hair particles are not supported; not rendered")
@@ -59,8 +80,11 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
             continue  # e.g. an instancer whose own geometry is hidden (Cycles' sync_objects does the same)
         matrix = np.array(instance.matrix_world, dtype=np.float64)
         _warn_unsupported_visibility(obj, reporter)
+        if obj.type in ("LIGHT", "VOLUME") or obj.type in geometry.GEOMETRY_TYPES:
+            if not validate.finite_transform(obj, matrix, reporter):
+                continue
         if obj.type == "LIGHT":
-            light = lights.export_light(obj, matrix, reporter)
+            light = validate.checked_light(lambda: lights.export_light(obj, matrix, reporter), obj, reporter)
             if light is not None:
                 scene_lights.append(light)
             continue
@@ -96,7 +120,9 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter):
             name = f"{parent}/{obj.name}#{len(meshes)}"
         else:
             name = obj.name
-        meshes.append(geometry.to_world(name, local, matrix, slot_materials))
+        mesh = validate.finite_mesh(geometry.to_world(name, local, matrix, slot_materials), obj.name, reporter)
+        if mesh is not None:
+            meshes.append(mesh)
     return meshes, scene_lights, grid_sources
 
 
@@ -135,7 +161,19 @@ def _export_grid_media(depsgraph, sources: set, table: shading.MaterialTable, re
     if "fluid" in sources:
         exported += fluid.export_fluid_domains(depsgraph, messages)
     for volume in exported:
-        medium = grid_media.grid_medium_from_volume(volume, messages)
+        material = f"material '{volume.material.name}'" if volume.material is not None else "no material"
+        problems, notes = validate.volume_material_problems(volume.material)
+        if problems:  # Volume objects read their material's sockets themselves: checked here
+            messages.append(f"volume '{volume.object_name}' ({material}): {'; '.join(problems)}; "
+                            "the object is not rendered")
+            continue
+        for note in notes:
+            messages.append(f"volume '{volume.object_name}' ({material}): {note}; rendered as that number")
+        try:
+            medium = grid_media.grid_medium_from_volume(volume, messages)
+        except vp.SceneError as error:
+            messages.append(f"volume '{volume.object_name}' ({material}): {error}; the object is not rendered")
+            continue
         if medium is None:
             continue
         table.media.append(medium)

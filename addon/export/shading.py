@@ -27,6 +27,7 @@ from volpath_native.grid_medium import blackbody_emission
 from volpath_native.bsdfs.nodes import SurfaceNode
 
 from .. import compat
+from . import validate
 from .surfaces import surface_terms
 
 # Cycles clamps Henyey-Greenstein's g to +-(1 - 1e-3) (kernel/closure/volume_henyey_greenstein.h).
@@ -81,15 +82,20 @@ class NodeReader:
         self.reporter.warn(f"{self.owner}: node '{node.name}' ({node.bl_idname}): {message}")
 
     def value(self, node, socket):
-        """The socket's constant value: float, or an RGB float64 array for colours/vectors."""
+        """The socket's constant value: float, or an RGB float64 array for colours/vectors
+        (non-finite values replaced and warned about: validate.finite_socket_value)."""
         source = _source_socket(socket) if socket.is_linked else None
+        value = None
         if source is not None:
             if source.node.type in ("RGB", "VALUE"):  # constants feeding the input
-                return _as_value(source.default_value)
-            self.warn(node, f"input '{socket.name}' is driven by '{source.node.name}' "
-                            f"({source.node.bl_idname}), which VolPath cannot evaluate; "
-                            "using the input's own value")
-        return _as_value(socket.default_value)
+                value = _as_value(source.default_value)
+            else:
+                self.warn(node, f"input '{socket.name}' is driven by '{source.node.name}' "
+                                f"({source.node.bl_idname}), which VolPath cannot evaluate; "
+                                "using the input's own value")
+        if value is None:
+            value = _as_value(socket.default_value)
+        return validate.finite_socket_value(value, lambda message: self.warn(node, message), socket.name)
 
     def rgb(self, node, name_or_socket) -> np.ndarray:
         socket = node.inputs[name_or_socket] if isinstance(name_or_socket, str) else name_or_socket

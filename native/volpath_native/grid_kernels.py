@@ -8,8 +8,19 @@ Conventions are those of grid_medium (read its module docstring): padded float32
 (kernel/integrator/shade_volume.h, volume_null_event_coefficients / volume_scatter_probability).
 
 Random numbers: tracking a ray draws uniform1(key, stream + j) for j = 0, 1, 2, ...; the caller
-reserves STREAM_DIMENSIONS of them per stream. A ray that would need more stops with weight 0 and
-counts an overflow in G.flags (never wraps into another stream).
+reserves STREAM_DIMENSIONS of them per stream, more than the step budget can use.
+
+Step budget (the defined outcome for extreme majorants, e.g. a Density typed as inf, which Blender
+stores as FLT_MAX): a tracking call whose tentative collisions -- those taken plus those expected in
+the current majorant cell (rate x remaining length) -- would exceed TRACKING_BUDGET stops at once and
+treats the ray as opaque: free flight absorbs the path (weight 0, no scatter), transmittance is 0.
+Each such call is counted in G.flags[FLAG_BUDGET] and reported by the renderer. Cycles likewise caps
+its tracking (kernel/integrator/shade_volume.h VOLUME_MAX_STEPS, "in case of numerical problems"),
+but continues the path past the cap; VolPath ends it, since only a medium opaque in practice (optical
+depth of the bound ~1e4) reaches the cap.
+
+Cancelling: G.stop is a flag the renderer sets from another thread (or process) to abandon a
+batch; tracking then returns at once with weight 0 (the batch is discarded).
 
 All functions are jit.stage_kernel (no NRT: nothing here allocates), the lookups inlined into the
 tracker; path_kernels calls grid_free_flight / grid_transmittance / grid_scattering per path. numba
@@ -49,16 +60,23 @@ GridTables = namedtuple("GridTables", [
     "index_to_cell",      # (3,) float64 scale from index space to majorant-cell space
     "g",                  # float, Henyey-Greenstein anisotropy
     "flags",              # (3,) int64 counters written by the kernels: see FLAG_*
+    "stop",               # (1,) int64 non-zero: abandon tracking (the render was cancelled)
     "violation",          # (2,5) float64 last majorant / minorant violation: value, bound, world x, y, z
 ])
 
-#: Uniform dimensions reserved per stream; tracking stops (weight 0) rather than exceed them.
+#: Uniform dimensions reserved per stream.
 STREAM_DIMENSIONS = 1 << 20
+#: Tentative collisions one tracking call may take (see the module docstring).
+TRACKING_BUDGET = 1 << 14
+# a collision draws at most two numbers: the budget never reaches into the next stream
+assert 2 * TRACKING_BUDGET + 2 < STREAM_DIMENSIONS
+# how often (in collisions) a long tracking call looks at G.stop
+_STOP_CHECK_MASK = 255
 # Tracking modes of _track, as numpy scalars: a Python int constant would be typed as a literal
 # and compile a separate copy of the tracker per mode.
 _FREE_FLIGHT, _TRANSMITTANCE, _RATIO = np.int64(0), np.int64(1), np.int64(2)
-#: G.flags entries.
-FLAG_MAJORANT, FLAG_MINORANT, FLAG_OVERFLOW = 0, 1, 2
+#: G.flags entries: bound violations (debug checks) and calls ended by the step budget.
+FLAG_MAJORANT, FLAG_MINORANT, FLAG_BUDGET = 0, 1, 2
 
 # Tolerances of the bound checks (float32 grids, float64 arithmetic).
 _REL_TOL, _ABS_TOL = 1e-4, 1e-7
@@ -247,12 +265,18 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
         G, ox, oy, oz, dx, dy, dz, t_min, t_max)
     rx, ry, rz = G.cell_shape[0], G.cell_shape[1], G.cell_shape[2]
     draws = np.int64(0)
+    steps = np.int64(0)  # tentative collisions taken
+    if active and G.stop[0] != 0:
+        return t_max, False, 0.0, 0.0, 0.0, er, eg, eb
     while active:
         rate = G.residual_rate[cx, cy, cz] if mode == 1 else G.majorant[cx, cy, cz]
         axis, crossing = _next_crossing(nx, ny, nz)
         cell_end = min(crossing, t_exit)
-        if draws >= STREAM_DIMENSIONS - 1:  # a collision needs up to two more dimensions
-            G.flags[FLAG_OVERFLOW] += 1
+        # the step budget: collisions taken + expected in this cell (`not <=` also stops a NaN rate)
+        if not steps + rate * (cell_end - t) <= TRACKING_BUDGET:
+            G.flags[FLAG_BUDGET] += 1
+            return t_max, False, 0.0, 0.0, 0.0, er, eg, eb
+        if (steps & _STOP_CHECK_MASK) == _STOP_CHECK_MASK and G.stop[0] != 0:
             return t_max, False, 0.0, 0.0, 0.0, er, eg, eb
         u = uniform1(key, np.uint64(stream) + np.uint64(draws))
         draws += 1
@@ -265,6 +289,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
             cg += c[cx, cy, cz, 1] * (reached - t)
             cb += c[cx, cy, cz, 2] * (reached - t)
         if collided:
+            steps += 1
             t = t_candidate
             x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
             ssr, ssg, ssb, str_, stg, stb, emr, emg, emb = grid_coefficients(G, x, y, z)

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .grid_kernels import (FLAG_MAJORANT, FLAG_MINORANT, FLAG_OVERFLOW, STREAM_DIMENSIONS, GridTables,
+from .grid_kernels import (FLAG_BUDGET, FLAG_MAJORANT, FLAG_MINORANT, TRACKING_BUDGET, GridTables,
                            box_interval_many, coefficients_many, dda_cells1, density_many, track_many)
 from .scene import Mesh, SceneError, rgb
 
@@ -244,9 +244,11 @@ class GridMedium:
                                      clamp=False)
         self.majorant_resolution = int(majorant_resolution)
         self._build_majorant_grid(self.majorant_resolution)
-        # What the kernels record when called through `tables` (bound violations, stream overflows).
+        # What the kernels record when called through `tables` (bound violations, calls ended by
+        # the step budget), and the flag that abandons tracking (set when a render is cancelled).
         self._flags = np.zeros(3, dtype=np.int64)
         self._violation = np.zeros((2, 5))
+        self._stop = np.zeros(1, dtype=np.int64)
 
     # ------------------------------------------------------------------------------------------
     # Construction helpers
@@ -401,7 +403,7 @@ class GridMedium:
 
         The arrays are the medium's own (no copies): edits of majorant_grid etc. in place show
         through. tables.flags / tables.violation are this medium's shared bound-violation and
-        stream-overflow record (see grid_kernels); `check_flags(tables)` turns it into errors."""
+        step-budget record (see grid_kernels); `check_flags(tables)` reads it."""
         no_grid = self._NO_GRID
         return GridTables(
             density=self.density,
@@ -418,7 +420,7 @@ class GridMedium:
             cell_shape=self.majorant_shape,
             index_to_cell=self.majorant_shape / (self.shape - 1).astype(np.float64),
             g=self.g,
-            flags=self._flags, violation=self._violation)
+            flags=self._flags, violation=self._violation, stop=self._stop)
 
     _NO_GRID = np.zeros((1, 1, 1, 3), dtype=np.float32)
 
@@ -426,28 +428,30 @@ class GridMedium:
         """Tables with a fresh violation record, private to one numpy-facing call."""
         return self.tables._replace(flags=np.zeros(3, dtype=np.int64), violation=np.zeros((2, 5)))
 
-    def check_flags(self, tables: GridTables) -> None:
-        """Report what the kernels recorded in tables.flags: bound violations raise
-        MajorantTooLowError in debug mode (unchecked otherwise, as the bounds are conservative by
-        construction); rays that ran out of random dimensions warn (their weight is 0: biased).
-        The record is cleared as it is read."""
+    def check_flags(self, tables: GridTables) -> int:
+        """Read and clear what the kernels recorded in tables.flags. Returns how many tracking calls
+        the step budget ended (those rays were treated as opaque: see grid_kernels). Bound
+        violations raise MajorantTooLowError in debug mode (unchecked otherwise, as the bounds are
+        conservative by construction)."""
         flags, violation = tables.flags.copy(), tables.violation.copy()
         tables.flags[:] = 0
-        if flags[FLAG_OVERFLOW]:
-            warnings.warn(f"grid medium '{self.name}': {int(flags[FLAG_OVERFLOW])} rays needed more than "
-                          f"{STREAM_DIMENSIONS} random numbers and were stopped (weight 0)", RuntimeWarning)
-        if not self.debug:
-            return
-        if flags[FLAG_MAJORANT]:
+        if self.debug and flags[FLAG_MAJORANT]:
             value, bound, *point = violation[FLAG_MAJORANT]
             raise MajorantTooLowError(
                 f"grid medium '{self.name}': sigma_t {value:.6g} exceeds the majorant {bound:.6g} at {point} "
                 f"({int(flags[FLAG_MAJORANT])} points): tracking is biased")
-        if flags[FLAG_MINORANT]:
+        if self.debug and flags[FLAG_MINORANT]:
             value, bound, *point = violation[FLAG_MINORANT]
             raise MajorantTooLowError(
                 f"grid medium '{self.name}': sigma_t {value:.6g} is below the minorant {bound:.6g} at {point} "
                 f"({int(flags[FLAG_MINORANT])} points): residual tracking is biased")
+        return int(flags[FLAG_BUDGET])
+
+    def budget_message(self, count: int) -> str:
+        """The user-facing warning for `count` tracking calls ended by the step budget."""
+        return (f"grid medium '{self.name}': {count} rays would have needed more than {TRACKING_BUDGET} "
+                f"collisions (majorant up to {float(self.majorant_grid.max()):.3g} per m: is the Density "
+                "extreme?) and were treated as opaque")
 
     # ------------------------------------------------------------------------------------------
     # Lookups (loops over the scalar kernels)
@@ -492,7 +496,9 @@ class GridMedium:
         tables = self._call_tables()
         track_many(tables, origins, dirs, t_min, t_max, keys, 0, mode, throughput, t_out, scattered, weight,
                    emission)
-        self.check_flags(tables)
+        ended = self.check_flags(tables)
+        if ended:
+            warnings.warn(self.budget_message(ended), RuntimeWarning)
         return FreeFlight(t_out, scattered, weight, emission)
 
     def sample_free_flight(self, origins, dirs, t_max, rng: np.random.Generator, throughput=None,

@@ -10,6 +10,7 @@ The estimators and their references are listed in path_kernels.py.
 """
 from __future__ import annotations
 
+import mmap
 import threading
 
 import numpy as np
@@ -118,6 +119,15 @@ class Integrator:
             self._camera_stack = self.media.stack_at(self.camera.position[None, :])[0]
         self._seed_key = seed_key(self.settings.seed)
         self._thread_buffers = threading.local()
+        # Set by request_stop() to abandon the batches in flight: grid tracking (the only per-path
+        # work without a bound in time) polls it. Anonymous shared memory, so forked render
+        # workers see the parent's write.
+        self._stop = np.frombuffer(mmap.mmap(-1, 8), dtype=np.int64)
+
+    def request_stop(self, stop: bool = True):
+        """Make render_paths calls in flight (any thread or forked worker) end soon: they raise
+        Cancelled if given a cancel callback, else return with the batch's estimates biased."""
+        self._stop[0] = 1 if stop else 0
 
     # -----------------------------------------------------------------------------------------
     def _buffers(self, n: int) -> "_Buffers":
@@ -141,20 +151,23 @@ class Integrator:
         return F, I, K, C, o32, d32, t32
 
     def render_paths(self, pixel: np.ndarray, sample: np.ndarray, cancel=None):
-        """Radiance estimates (N,3) for paths (crop-region pixel index, sample index) and stats."""
+        """Radiance estimates (N,3) for paths (crop-region pixel index, sample index) and stats:
+        counters (rays, shadow_rays, vertices, paths), `dropped` (contributions with a component
+        that was not finite or beyond float32's range, zeroed as Cycles does: path_kernels
+        _add_radiance) and `budget` (per grid medium, tracking calls the step budget ended)."""
         n = len(pixel)
         stats = dict(rays=0, shadow_rays=0, vertices=0, paths=n)
         buffers = self._buffers(n)
         F, I, K, C, o32, d32, t32 = self._start_paths(pixel, sample, buffers)
         Q = buffers.queue
-        L = np.zeros((n, 3))
+        L = np.zeros((n, 4))  # RGB and the count of dropped contributions
         alive = buffers.alive[:n]
         alive[:] = True
         counter = np.zeros(1, np.int64)
         margin = 2.0 * self.accel.epsilon
         # grid tables with a violation record private to this batch (threads never share it),
         # padded so that scenes with up to GRID_SLOTS grids share one compiled signature
-        grid_tables = tuple(grid._call_tables() for grid in self.grids)
+        grid_tables = tuple(grid._call_tables()._replace(stop=self._stop) for grid in self.grids)
         grid_tables += (_no_grid_tables(),) * max(GRID_SLOTS - len(grid_tables), 0)
         iteration = 0
         while n:
@@ -165,15 +178,18 @@ class Integrator:
             m = pk.shade(self.tables, self.lights.tables, grid_tables, self.surface_nodes, self.bsdf_tables,
                          buffers.closures, n, iteration, F, I, K, C, hits.t,
                          hits.prim, hits.u, hits.v, L, alive, Q, counter, o32, d32, t32)
-            self._trace_shadows(grid_tables, buffers.closures, Q, m, margin, L, stats, iteration)
+            self._trace_shadows(grid_tables, buffers.closures, Q, m, margin, L, stats, iteration, cancel)
             n = pk.compact(F, I, K, C, n, alive, o32, d32, t32)
             iteration += 1
+        if cancel is not None and cancel():
+            raise Cancelled()  # tracking may have been abandoned part-way: discard the batch
         stats["vertices"] = int(counter[0])
-        for grid, tables in zip(self.grids, grid_tables):
-            grid.check_flags(tables)
-        return L, stats
+        stats["dropped"] = int(L[:, 3].sum())
+        stats["budget"] = np.array([grid.check_flags(tables) for grid, tables in zip(self.grids, grid_tables)],
+                                   dtype=np.int64)
+        return L[:, :3], stats
 
-    def _trace_shadows(self, grid_tables, closures, Q, m, margin, L, stats, iteration):
+    def _trace_shadows(self, grid_tables, closures, Q, m, margin, L, stats, iteration, cancel=None):
         """Transmittance of queued shadow rays, added to L where the light is reached."""
         if not m:
             return
@@ -185,6 +201,8 @@ class Integrator:
         for step in range(pk.MAX_VOLUME_BOUNDS):
             if not m:
                 return
+            if cancel is not None and cancel():
+                raise Cancelled()
             hits = self.accel.intersect_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m])
             stats["shadow_rays"] += m
             m = pk.shadow_step(self.tables, grid_tables, self.surface_nodes, self.bsdf_tables, closures, Q, m,

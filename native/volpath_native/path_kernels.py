@@ -121,11 +121,22 @@ def _dot3(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
+# Largest float32: a contribution component beyond it would be inf in a float32 film.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
 @inline_stage_kernel
 def _add_radiance(L, pid, v):
-    L[pid, 0] += v[0]
-    L[pid, 1] += v[1]
-    L[pid, 2] += v[2]
+    """L[pid, :3] += v; components that are not finite or beyond float32's range are zeroed and
+    the contribution counted in L[pid, 3] (Cycles zeroes non-finite components of every
+    contribution: kernel/film/light_passes.h film_clamp_light, util/math_float3.h ensure_finite)."""
+    r, g, b = v[0], v[1], v[2]
+    ok_r, ok_g, ok_b = abs(r) <= FLOAT32_MAX, abs(g) <= FLOAT32_MAX, abs(b) <= FLOAT32_MAX
+    L[pid, 0] += r if ok_r else 0.0
+    L[pid, 1] += g if ok_g else 0.0
+    L[pid, 2] += b if ok_b else 0.0
+    if not (ok_r and ok_g and ok_b):
+        L[pid, 3] += 1.0
 
 
 @inline_stage_kernel

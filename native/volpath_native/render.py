@@ -12,8 +12,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .camera import crop_window
 from .integrator import Cancelled, Integrator
 from .scene import Scene, SceneError
+from .scene_schema import check_settings
 
 
 @dataclass
@@ -28,12 +30,16 @@ class RenderResult:
     crop_offset: tuple = (0, 0)  # (x, y) of the crop region from the top-left of the full frame
 
 
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
 class _Film:
     """Per-pixel running sums of the samples and their squares (float64)."""
 
     def __init__(self, n_pixels: int):
         self.n_pixels = n_pixels
         self.sum = self.sum_sq = self.count = None  # allocated on the first sample
+        self.dropped = 0  # samples with a component zeroed (see add)
         self.lock = threading.Lock()
 
     @property
@@ -41,6 +47,13 @@ class _Film:
         return self.count is None
 
     def add(self, pixel, values):
+        """Accumulate one sample per row. A component that is not finite or beyond float32's range
+        (a sum of contributions each within it can be) is zeroed and the sample counted in
+        `dropped`, so every pixel of the float32 image is finite."""
+        bad = ~(np.abs(values) <= FLOAT32_MAX)
+        if bad.any():
+            values = np.where(bad, 0.0, values)
+            self.dropped += int(np.count_nonzero(bad.any(axis=1)))
         # bincount over the chunk's own pixel range: cost follows the batch, not the resolution
         lo, hi = int(pixel.min()), int(pixel.max()) + 1
         local = pixel - lo
@@ -63,20 +76,28 @@ class _Film:
         var = self.sum_sq / n
         var -= mean * mean
         var *= 1.0 / np.maximum(n - 1, 1)
-        return np.maximum(var, 0.0, out=var)
+        return np.clip(var, 0.0, FLOAT32_MAX, out=var)  # stays finite in float32
 
 
-_COUNTERS = ("rays", "shadow_rays", "vertices", "paths")
+_COUNTERS = ("rays", "shadow_rays", "vertices", "paths", "dropped")
 
 
 _WORKER = None  # (Integrator, stop event) of the render being served by forked workers
+
+
+def _chunk_paths(chunk):
+    """(pixel, sample) arrays of one chunk (first, end, first sample, pixels): the paths of a round
+    are numbered sample-major and made per chunk, so memory follows the batch, not the image."""
+    first, end, sample0, n_pix = chunk
+    k = np.arange(first, end, dtype=np.int64)
+    return k % n_pix, sample0 + k // n_pix
 
 
 def _run_in_worker(chunk):
     integrator, stop = _WORKER
     if stop.is_set():
         raise Cancelled()
-    return integrator.render_paths(chunk[0], chunk[1], stop.is_set)
+    return (*integrator.render_paths(*_chunk_paths(chunk), stop.is_set), chunk)
 
 
 def _fork_available() -> bool:
@@ -89,15 +110,14 @@ def _thread_count(requested: int) -> int:
 
 
 def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderResult:
-    """Render scene.settings.samples samples per pixel progressively (see module docstring)."""
+    """Render scene.settings.samples samples per pixel progressively (see module docstring).
+
+    cancel() is polled several times a second: once true, the render returns within about a second
+    with the rounds completed so far (every pixel holds the same number of samples)."""
     warnings = list(scene.validate())
     st = scene.settings
-    if st.samples < 1:
-        raise SceneError(f"samples must be at least 1, got {st.samples}")
-    if st.volume_sampling not in ("mis", "distance", "equiangular"):
-        raise SceneError(f"unknown volume sampling '{st.volume_sampling}'")
-    if st.parallelism not in ("threads", "processes"):
-        raise SceneError(f"unknown parallelism '{st.parallelism}' (threads or processes)")
+    check_settings(st)
+    check_film_memory(scene.film)
     start = time.perf_counter()
     integrator = Integrator(scene)
     warnings += integrator.warnings
@@ -106,9 +126,15 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
     film = _Film(n_pix)
     threads = _thread_count(st.threads)
     batch = max(256, int(st.batch_size))
+    batch_limit = physical_memory() // (4 * threads * PATH_BYTES) or batch
+    if batch > batch_limit:
+        warnings.append(f"batch size {batch} would need {batch * threads * PATH_BYTES / 2 ** 30:.3g} GiB of path "
+                        f"state; reduced to {batch_limit} (a quarter of this machine's memory)")
+        batch = max(256, batch_limit)
     # A round is at least one sample everywhere and roughly a batch per thread.
     per_round = max(1, min(st.samples, (threads * batch) // max(n_pix, 1)))
     stats = {k: 0 for k in _COUNTERS}
+    budget = np.zeros(len(integrator.grids), dtype=np.int64)  # tracking calls ended, per grid medium
     done = 0
     cancelled = False
 
@@ -129,43 +155,44 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
         def run(chunk):
             if stop.is_set():
                 raise Cancelled()
-            values, s = integrator.render_paths(chunk[0], chunk[1], stop.is_set)
-            return values, s
+            return (*integrator.render_paths(*_chunk_paths(chunk), stop.is_set), chunk)
+
+    def stop_workers():
+        stop.set()
+        integrator.request_stop()  # reaches into long grid tracking, in threads and forked workers
 
     def wait_polling_cancel(futures):
         pending = set(futures)
         while pending:
             _, pending = wait(pending, timeout=0.05)
             if cancel is not None and not stop.is_set() and cancel():
-                stop.set()
+                stop_workers()
 
     with executor as pool:
         while done < st.samples and not cancelled:
             n_smp = min(per_round, st.samples - done)
-            pixels = np.tile(np.arange(n_pix, dtype=np.int64), n_smp)
-            samples = np.repeat(np.arange(done, done + n_smp, dtype=np.int64), n_pix)
+            n_paths = n_pix * n_smp
             # every thread gets work: at least `threads` chunks of near-equal size (a small image
             # would otherwise fit one batch and leave the other threads idle)
-            n_chunks = max(-(-len(pixels) // batch), min(threads, -(-len(pixels) // 256)))
-            size = -(-len(pixels) // n_chunks)
-            chunks = [(pixels[k:k + size], samples[k:k + size]) for k in range(0, len(pixels), size)]
+            n_chunks = max(-(-n_paths // batch), min(threads, -(-n_paths // 256)))
+            size = -(-n_paths // n_chunks)
+            chunks = [(k, min(k + size, n_paths), done, n_pix) for k in range(0, n_paths, size)]
             # A round is committed to the film only when complete, so after a cancel every pixel
             # still holds the same number of samples.
-            round_film = []
             futures = [pool.submit(run, c) for c in chunks]
             wait_polling_cancel(futures)
             try:
-                for c, f in zip(chunks, futures):
-                    round_film.append((c[0], *f.result()))
+                round_film = [f.result() for f in futures]
             except Cancelled:
                 cancelled = True
                 for f in futures:
                     f.cancel()
                 break
-            for pix, values, s in round_film:
-                film.add(pix, values)
+            for values, s, chunk in round_film:
+                film.add(_chunk_paths(chunk)[0], values)
                 for k in _COUNTERS:
                     stats[k] += s[k]
+                budget += s["budget"]
             done += n_smp
             elapsed = time.perf_counter() - start
             stats.update(seconds=elapsed, samples_per_second=done * n_pix / max(elapsed, 1e-9),
@@ -179,12 +206,15 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
                 cancelled = True
     elapsed = time.perf_counter() - start
     stats["seconds"] = elapsed
+    stats["dropped_samples"] = film.dropped
+    stats["budget_exceeded"] = int(budget.sum())
+    warnings += _guard_warnings(integrator, stats, budget)
     if film.empty:  # cancelled before the first round completed
         return RenderResult(image=np.zeros((ch, cw, 4), np.float32), variance=np.zeros((ch, cw, 3), np.float32),
                             samples=0, seconds=elapsed, stats=stats, warnings=warnings, cancelled=cancelled,
                             crop_offset=(x0, y0))
     mean = film.mean()
-    if not np.all(np.isfinite(mean)):
+    if not np.all(np.isfinite(mean)):  # the guards above make this unreachable
         bad = int(np.count_nonzero(~np.isfinite(mean).all(axis=1)))
         warnings.append(f"{bad} pixels had non-finite values and were set to 0 (please report)")
         mean = np.nan_to_num(mean, nan=0.0, posinf=0.0, neginf=0.0)
@@ -192,6 +222,55 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
     variance = film.variance_of_mean(mean).reshape(ch, cw, 3).astype(np.float32)
     return RenderResult(image=image, variance=variance, samples=done, seconds=elapsed, stats=stats,
                         warnings=warnings, cancelled=cancelled, crop_offset=(x0, y0))
+
+
+# Upper bound of what a path in flight holds (integrator._Buffers: state, rays, two shadow-queue
+# entries, Embree hits, radiance).
+PATH_BYTES = 1024
+# What the film holds per rendered pixel at the end of a render: float64 sums, squares and count,
+# the float64 mean, the float32 RGBA image and RGB variance.
+FILM_BYTES_PER_PIXEL = (3 + 3 + 1 + 3) * 8 + (4 + 3) * 4
+
+
+def physical_memory() -> int:
+    """Bytes of RAM of this machine (0 if unknown)."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return 0
+
+
+def film_memory_problem(film):
+    """Why a film's buffers would not fit in this machine's memory, or None; computed from the
+    resolution before anything is allocated."""
+    _, _, width, height = crop_window(film)
+    needed = width * height * FILM_BYTES_PER_PIXEL
+    memory = physical_memory()
+    if memory and needed > memory // 2:
+        return (f"{width}x{height} pixels need {needed / 2 ** 30:.3g} GiB of film buffers, more than half of "
+                f"this machine's {memory / 2 ** 30:.3g} GiB of memory; lower the resolution")
+    return None
+
+
+def check_film_memory(film) -> None:
+    """SceneError naming the resolution if film_memory_problem finds one."""
+    problem = film_memory_problem(film)
+    if problem:
+        raise SceneError(f"film {film.width}x{film.height}: {problem}")
+
+
+def _guard_warnings(integrator, stats, budget) -> list:
+    """What the numeric guards did, for the user: dropped contributions and samples, grid media
+    whose tracking the step budget ended."""
+    messages = []
+    if stats["dropped"] or stats["dropped_samples"]:
+        messages.append(f"{stats['dropped']} light contributions and {stats['dropped_samples']} samples had "
+                        "components that were not finite or beyond float32's range; those components were "
+                        "dropped (as Cycles does). Check for extreme emission strengths, light powers or densities")
+    for grid, count in zip(integrator.grids, budget):
+        if count:
+            messages.append(grid.budget_message(int(count)))
+    return messages
 
 
 def _image(film: _Film, h: int, w: int, mean=None) -> np.ndarray:

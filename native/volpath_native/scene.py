@@ -247,10 +247,13 @@ class Mesh:
         return warnings
 
     def open_edge_count(self, triangle_mask: Optional[np.ndarray] = None) -> int:
-        """Edges used by exactly one (non-degenerate) triangle: 0 for a closed (watertight) mesh."""
+        """Edges used by exactly one triangle once coincident vertices are merged: 0 for a closed
+        (watertight) surface, also when it is split at seams (extruded text, Edge Split, UV seams)."""
         tris = self.triangles if triangle_mask is None else self.triangles[triangle_mask]
         if len(tris) == 0:
             return 0
+        _, weld = np.unique(self.vertices, axis=0, return_inverse=True)
+        tris = weld.reshape(-1)[tris]
         edges = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
         _, counts = np.unique(edges, axis=0, return_counts=True)
         return int(np.count_nonzero(counts == 1))
@@ -460,6 +463,10 @@ class Scene:
     def validate(self) -> list[str]:
         """Raise SceneError for unusable input; fix up and return warnings for recoverable input."""
         warnings: list[str] = []
+        for what in ("width", "height"):
+            value = getattr(self.film, what)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise SceneError(f"film {what} must be an integer, got {value!r}")
         if self.film.width < 1 or self.film.height < 1:
             raise SceneError(f"film resolution {self.film.width}x{self.film.height} is empty")
         if self.film.filter not in FILTERS:
@@ -497,13 +504,14 @@ class Scene:
                         f"mesh '{mesh.name}' bounds a medium but is not closed ({open_edges} open edges): "
                         "rays would enter the medium and never leave it")
         for light in self.lights:
-            warnings += _validate_light(light)
+            warnings += validate_light(light)
         if not self.meshes and not self.lights and not np.any(self.world.background > 0):
             warnings.append("the scene is empty: nothing emits light, the image is black")
         return warnings
 
 
-def _validate_light(light) -> list[str]:
+def validate_light(light) -> list[str]:
+    """SceneError for a light that cannot be rendered, warnings for one that renders as nothing."""
     name = f"light '{light.name}'"
     power = light.irradiance if isinstance(light, SunLight) else light.power
     if np.any(power < 0):

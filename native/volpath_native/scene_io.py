@@ -17,16 +17,19 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import struct
+import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
 
 from . import scene as sc
+from .scene_schema import LIGHT_TYPES as _LIGHT_TYPES
 
 FORMAT_NAME = "volpath-scene"
 FORMAT_VERSION = 1
 
-_LIGHT_TYPES = {"point": sc.PointLight, "spot": sc.SpotLight, "area": sc.AreaLight, "sun": sc.SunLight}
 _LIGHT_NAMES = {cls: name for name, cls in _LIGHT_TYPES.items()}
 
 
@@ -99,16 +102,77 @@ def save_scene(scene: sc.Scene, path) -> Path:
 
 
 def load_scene(path) -> sc.Scene:
-    with np.load(Path(path), allow_pickle=False) as data:
+    """Read a .vpscene file. Every problem with it -- not a zip archive, truncated, malformed JSON,
+    a field of the wrong type, an unknown field, an index out of range, an array whose claimed size
+    the file does not hold -- raises SceneError naming the file and the field (scene_schema), before
+    anything is built. OSError if the file cannot be opened."""
+    from . import scene_schema
+
+    path = Path(path)
+    where = str(path)
+    with open(path, "rb") as stream:  # OSError (missing, unreadable) passes through
         try:
-            header = json.loads(bytes(data["scene.json"]).decode("utf-8"))
-        except KeyError:
-            raise sc.SceneError(f"{path}: not a VolPath scene (no scene.json)") from None
-        if header.get("format") != FORMAT_NAME:
-            raise sc.SceneError(f"{path}: not a VolPath scene")
-        if int(header.get("version", 0)) > FORMAT_VERSION:
-            raise sc.SceneError(f"{path}: scene format version {header['version']} is newer than "
-                                f"this renderer's ({FORMAT_VERSION}); update VolPath")
+            members = _array_headers(stream, where)
+        except sc.SceneError:
+            raise
+        except (zipfile.BadZipFile, EOFError, ValueError, OSError, KeyError, struct.error) as error:
+            raise sc.SceneError(f"{where}: not a readable VolPath scene (truncated or not a .vpscene "
+                                f"archive: {error})") from None
+    if "scene.json" not in members:
+        raise sc.SceneError(f"{where}: not a VolPath scene (no scene.json)")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            raw = data["scene.json"]
+            if raw.dtype != np.uint8 or raw.ndim != 1:
+                raise sc.SceneError(f"{where}: scene.json: expected a uint8 byte array")
+            try:
+                header = json.loads(bytes(raw).decode("utf-8"))
+            except (UnicodeDecodeError, json.JSONDecodeError) as error:
+                raise sc.SceneError(f"{where}: scene.json: not valid JSON ({error})") from None
+            scene_schema.check_header(header, members, where)
+            scene_schema.check_arrays(header, data, where)
+            return _build(header, data, where)
+    except sc.SceneError:
+        raise
+    except (zipfile.BadZipFile, EOFError, ValueError, OSError, KeyError, zlib.error) as error:
+        raise sc.SceneError(f"{where}: damaged archive ({type(error).__name__}: {error})") from None
+
+
+def _array_headers(stream, where: str) -> dict:
+    """{array name: (shape, dtype, bytes)} from the archive's .npy headers, without reading any
+    array data; an array claiming more bytes than its archive member holds is refused."""
+    from .scene_schema import MAX_HEADER_BYTES
+
+    members = {}
+    with zipfile.ZipFile(stream) as archive:
+        for info in archive.infolist():
+            if not info.filename.endswith(".npy"):
+                continue
+            name = info.filename[:-4]
+            with archive.open(info) as member:
+                version = np.lib.format.read_magic(member)
+                if version == (1, 0):
+                    shape, _, dtype = np.lib.format.read_array_header_1_0(member)
+                elif version in ((2, 0), (3, 0)):
+                    shape, _, dtype = np.lib.format.read_array_header_2_0(member)
+                else:
+                    raise sc.SceneError(f"{where}: array '{name}': unsupported .npy version {version}")
+                offset = member.tell()
+            if dtype.hasobject:
+                raise sc.SceneError(f"{where}: array '{name}' holds Python objects (refused: files stay pickle-free)")
+            nbytes = int(np.prod(shape, dtype=object)) * dtype.itemsize
+            if nbytes > info.file_size - offset:
+                raise sc.SceneError(f"{where}: array '{name}' claims shape {shape} ({nbytes} bytes) but the file holds "
+                                    f"{max(info.file_size - offset, 0)} bytes for it (truncated or damaged)")
+            if name == "scene.json" and nbytes > MAX_HEADER_BYTES:
+                raise sc.SceneError(f"{where}: scene.json is {nbytes} bytes, more than {MAX_HEADER_BYTES}")
+            members[name] = (shape, dtype, nbytes)
+    return members
+
+
+def _build(header: dict, data, where: str) -> sc.Scene:
+    """The Scene of a checked header and archive (SceneError from the constructors named by file)."""
+    try:
         media = [_load_medium(i, m, data) for i, m in enumerate(header["media"])]
         meshes = []
         for i, info in enumerate(header["meshes"]):
@@ -119,20 +183,22 @@ def load_scene(path) -> sc.Scene:
                 material_ids=data[f"mesh{i}.material_ids"],
                 corner_normals=data[f"mesh{i}.corner_normals"] if info.get("smooth") else None,
             ))
-    film = dict(header["film"])
-    if film.get("crop") is not None:
-        film["crop"] = tuple(film["crop"])
-    lights = []
-    for entry in header["lights"]:
-        entry = dict(entry)
-        lights.append(_LIGHT_TYPES[entry.pop("type")](**entry))
-    return sc.Scene(
-        camera=sc.Camera(**header["camera"]),
-        film=sc.Film(**film),
-        meshes=meshes,
-        materials=[sc.Material(**m) for m in header["materials"]],
-        media=media,
-        lights=lights,
-        world=sc.World(**header["world"]),
-        settings=sc.RenderSettings(**header["settings"]),
-    )
+        film = dict(header["film"])
+        if film.get("crop") is not None:
+            film["crop"] = tuple(film["crop"])
+        lights = []
+        for entry in header["lights"]:
+            entry = dict(entry)
+            lights.append(_LIGHT_TYPES[entry.pop("type")](**entry))
+        return sc.Scene(
+            camera=sc.Camera(**header["camera"]),
+            film=sc.Film(**film),
+            meshes=meshes,
+            materials=[sc.Material(**m) for m in header["materials"]],
+            media=media,
+            lights=lights,
+            world=sc.World(**header.get("world", {})),
+            settings=sc.RenderSettings(**header.get("settings", {})),
+        )
+    except sc.SceneError as error:
+        raise sc.SceneError(f"{where}: {error}") from None

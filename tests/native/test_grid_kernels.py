@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from native_helpers import chi2_critical, rotated_transform
 
-from volpath_native.grid_kernels import (FLAG_OVERFLOW, STREAM_DIMENSIONS, grid_free_flight, grid_scattering,
+from volpath_native.grid_kernels import (FLAG_BUDGET, TRACKING_BUDGET, grid_free_flight, grid_scattering,
                                          grid_transmittance)
 from volpath_native.grid_medium import GridMedium
 
@@ -113,20 +113,37 @@ def test_grid_scattering_is_the_sigma_s_of_coefficients():
         assert grid_scattering(G, p[0], p[1], p[2]) == pytest.approx(tuple(expected), rel=1e-12, abs=1e-15)
 
 
-def test_a_ray_beyond_its_random_number_budget_stops_with_weight_zero():
-    """Never wrap into the next stream: a ray needing more than STREAM_DIMENSIONS numbers is cut
-    (weight 0), flagged, and the numpy-facing method warns."""
+def test_a_ray_beyond_the_step_budget_is_opaque_and_counted():
+    """A tracking call whose collisions (taken + expected in the current cell) would exceed
+    TRACKING_BUDGET ends as opaque (weight 0), is counted, and the numpy-facing method warns; one
+    that fits runs normally (planted contrast: the same empty medium on a shorter segment)."""
     medium = GridMedium("empty", np.zeros((4, 4, 4), np.float32), np.eye(4), 1.0, 0.0, majorant_resolution=1)
-    medium.majorant_grid[:] = 2.0 * STREAM_DIMENSIONS  # ~2^21 null collisions per unit length
-    with pytest.warns(RuntimeWarning, match="random numbers"):
+    medium.majorant_grid[:] = 2.0 * TRACKING_BUDGET  # ~2 x budget null collisions per unit length
+    with pytest.warns(RuntimeWarning, match="treated as opaque"):
         flight = medium.sample_free_flight([[1.0, 1.0, 0.5]], [[0.0, 0.0, 1.0]], 2.0, np.random.default_rng(0))
     np.testing.assert_array_equal(flight.weight, 0.0)
     G = medium.tables
     r = grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 2.0, np.uint64(5), 0, 1.0, 1.0, 1.0)
-    assert r[2:5] == (0.0, 0.0, 0.0) and G.flags[FLAG_OVERFLOW] == 1
-    # A short segment fits in the budget: weight 1 (nothing there).
+    assert r[2:5] == (0.0, 0.0, 0.0) and G.flags[FLAG_BUDGET] == 1
+    # A short segment fits in the budget (~330 null collisions): weight 1 (nothing there), not counted.
     r = grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 0.01, np.uint64(5), 0, 1.0, 1.0, 1.0)
-    assert r[2:5] == (1.0, 1.0, 1.0)
+    assert r[2:5] == (1.0, 1.0, 1.0) and G.flags[FLAG_BUDGET] == 1
+    # NaN or infinite majorants end at once too
+    for bad in (np.inf, np.nan):
+        medium.majorant_grid[:] = bad
+        r = grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 0.01, np.uint64(5), 0, 1.0, 1.0, 1.0)
+        assert r[2:5] == (0.0, 0.0, 0.0)
+    assert G.flags[FLAG_BUDGET] == 3
+
+
+def test_the_stop_flag_abandons_tracking():
+    medium = GridMedium("empty", np.zeros((4, 4, 4), np.float32), np.eye(4), 1.0, 0.0, majorant_resolution=1)
+    medium.majorant_grid[:] = 1000.0
+    G = medium.tables
+    assert grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 2.0, np.uint64(5), 0, 1.0, 1.0, 1.0)[2] == 1.0
+    G.stop[0] = 1
+    assert grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 2.0, np.uint64(5), 0, 1.0, 1.0, 1.0)[2] == 0.0
+    assert G.flags[FLAG_BUDGET] == 0  # abandoned, not counted as opaque
 
 
 def test_tables_of_every_medium_have_one_numba_type():
