@@ -146,6 +146,8 @@ class SurfaceNode:
                             "simulated, that part is shaded as diffuse with the clamped Base Color")
         return warnings
 
+    validate = sanitize  # the same sanitiser under the name callers may expect
+
     def sanitized(self) -> tuple["SurfaceNode", list[str]]:
         node = self.copy()
         return node, node.sanitize()
