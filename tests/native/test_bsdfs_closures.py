@@ -160,6 +160,32 @@ def test_closures_beyond_the_limit_are_dropped():
     assert a[0] == pytest.approx(0.8 * 0.05 * MAX_CLOSURES, rel=2e-2)
 
 
+def test_principled_emission_is_attenuated_by_alpha_sheen_and_coat_only():
+    wi = direction(30)
+    e = (1.0, 0.5, 0.25)
+    plain = Hit(S(emission_color=e, emission_strength=2.0, weight=0.5), wi)
+    np.testing.assert_allclose(plain.emission, np.array(e) * 2.0 * 0.5, rtol=1e-12)
+    below = Hit(S(emission_color=e, emission_strength=2.0, metallic=1.0, transmission=1.0), wi)
+    np.testing.assert_allclose(below.emission, np.array(e) * 2.0, rtol=1e-12)  # metal / glass do not dim it
+    cut = Hit(S(emission_color=e, emission_strength=2.0, alpha=0.25), wi)
+    np.testing.assert_allclose(cut.emission, np.array(e) * 2.0 * 0.25, rtol=1e-12)
+    coated = Hit(S(emission_color=e, emission_strength=2.0, coat_weight=1.0), wi)
+    coat_albedo = coated.CB.sample_weight[0]  # white coat weight x its albedo estimate
+    np.testing.assert_allclose(coated.emission, np.array(e) * 2.0 * (1 - coat_albedo), rtol=1e-9)
+    assert np.all(Hit(S.for_kind("glossy"), wi).emission == 0)
+
+
+def test_filter_glossy_blur():
+    wi = direction(30)
+    mirror = Hit(S.for_kind("glossy", roughness=0.0, distribution="ggx"), wi)
+    wo = np.array([direction(35, 180)])
+    assert mirror.eval(wo)[1][0] == 0.0  # a delta is never evaluated
+    mirror.blur(0.3)
+    assert mirror.CB.alpha_x[0] == 0.3 and mirror.eval(wo)[1][0] > 0.0
+    rough = Hit(S.for_kind("glossy", roughness=0.8, distribution="ggx"), wi).blur(0.3)
+    assert rough.CB.alpha_x[0] == pytest.approx(0.64)  # never sharpened
+
+
 def test_labels():
     cases = [(S.for_kind("diffuse"), LABEL_REFLECT | LABEL_DIFFUSE), (S.for_kind("translucent"),
              LABEL_TRANSMIT | LABEL_DIFFUSE), (S.for_kind("sheen"), LABEL_REFLECT | LABEL_DIFFUSE),

@@ -35,7 +35,7 @@ def test_sanitize_clamps_as_cycles_and_warns():
     text = "\n".join(warnings)
     for word in ["Roughness", "Metallic", "Ior", "Alpha", "Color", "Coat Ior", "distribution"]:
         assert word in text, (word, text)
-    assert n.sanitize() == []  # idempotent: nothing left to fix
+    assert n.sanitize() == [] and n.validate() == []  # idempotent: nothing left to fix
     # base colour above 1 is legal (the diffuse lobe uses it unclamped)
     assert SurfaceNode(color=(2.0, 1.0, 1.0)).sanitize() == []
 

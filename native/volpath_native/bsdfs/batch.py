@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import kernel
-from .closures import new_closure_buffer, setup_surface_tangent, surface_eval, surface_sample
+from .closures import new_closure_buffer, setup_surface_tangent, surface_blur, surface_eval, surface_sample
 from .microfacet import D_aniso, microfacet_eval
 from .nodes import SurfaceNode, surface_node_table
 from .tables import bsdf_tables
@@ -31,6 +31,15 @@ class Hit:
         self.count = int(_setup(self.SN, self.BT, 0, self.wi, self.n, self.ng, bool(backfacing), _vec(tangent),
                                 self.CB))
 
+    def blur(self, roughness: float):
+        """Filter Glossy: raise every microfacet alpha to at least `roughness`."""
+        _blur(self.CB, self.count, float(roughness))
+        return self
+
+    @property
+    def emission(self) -> np.ndarray:
+        return np.array(self.CB.emission)
+
     def eval(self, wo: np.ndarray):
         wo = np.ascontiguousarray(np.atleast_2d(wo), np.float64)
         f, pdf = np.empty((len(wo), 3)), np.empty(len(wo))
@@ -49,6 +58,11 @@ class Hit:
 @kernel
 def _setup(SN, BT, material, wi, n, ng, backfacing, tangent, CB):
     return setup_surface_tangent(SN, BT, material, wi, n, ng, backfacing, tangent, CB)
+
+
+@kernel
+def _blur(CB, count, roughness):
+    surface_blur(CB, count, roughness)
 
 
 @kernel

@@ -32,7 +32,7 @@ from .diffuse import (lambert_eval, lambert_sample, oren_nayar_eval, oren_nayar_
 from .fresnel import (FRESNEL_CONDUCTOR, FRESNEL_DIELECTRIC, FRESNEL_F82_TINT, FRESNEL_GENERALIZED_SCHLICK,
                       FRESNEL_NONE, F0_from_ior, closure_fresnel, conductor_Fss, f82_Fss, f82_tint_b,
                       fresnel_dielectric_Fss, ior_from_F0)
-from .microfacet import BECKMANN, GGX, is_singular, lambda_iso, microfacet_eval, microfacet_sample
+from .microfacet import BECKMANN, GGX, lambda_iso, microfacet_eval, microfacet_sample
 from .nodes import (DIST_BECKMANN, DIST_MULTI_GGX, MAX_CLOSURES, METAL_PHYSICAL, NODE_DIFFUSE, NODE_GLASS,
                     NODE_GLOSSY, NODE_METALLIC, NODE_PRINCIPLED, NODE_REFRACTION, NODE_SHEEN, NODE_TRANSLUCENT,
                     NODE_TRANSPARENT)
@@ -58,11 +58,12 @@ LABEL_TRANSPARENT = 32
 
 # Per-closure scratch of one thread. lobe_a / lobe_b: Oren-Nayar A, B or the sheen LTC a, b;
 # multiscatter: Oren-Nayar's energy term. tangent / bitangent complete `normal` to the closure
-# frame (anisotropy axis; for sheen, wi projected on the tangent plane).
+# frame (anisotropy axis; for sheen, wi projected on the tangent plane). emission (3,): the hit's
+# Principled emission after the alpha, sheen and coat layers (surface_emission).
 ClosureBuffer = namedtuple("ClosureBuffer", [
     "kind", "distribution", "fresnel", "weight", "sample_weight", "normal", "tangent", "bitangent",
     "alpha_x", "alpha_y", "ior", "energy_scale", "f0", "f90", "f82_b", "reflection_tint", "transmission_tint",
-    "conductor_n", "conductor_k", "lobe_a", "lobe_b", "multiscatter"])
+    "conductor_n", "conductor_k", "lobe_a", "lobe_b", "multiscatter", "emission"])
 
 
 def new_closure_buffer(max_closures: int = MAX_CLOSURES) -> ClosureBuffer:
@@ -73,7 +74,7 @@ def new_closure_buffer(max_closures: int = MAX_CLOSURES) -> ClosureBuffer:
         kind=np.zeros(m, np.int32), distribution=np.zeros(m, np.int32), fresnel=np.zeros(m, np.int32),
         weight=f3(), sample_weight=f1(), normal=f3(), tangent=f3(), bitangent=f3(), alpha_x=f1(), alpha_y=f1(),
         ior=f1(), energy_scale=f1(), f0=f3(), f90=f3(), f82_b=f3(), reflection_tint=f3(), transmission_tint=f3(),
-        conductor_n=f3(), conductor_k=f3(), lobe_a=f1(), lobe_b=f1(), multiscatter=f3())
+        conductor_n=f3(), conductor_k=f3(), lobe_a=f1(), lobe_b=f1(), multiscatter=f3(), emission=np.zeros(3))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -302,13 +303,16 @@ def _preserve_energy(CB, i, BT, wi, fss):
     energy_scale = 1.0 + missing
     CB.energy_scale[i] = energy_scale
     if not (fss[0] == 1.0 and fss[1] == 1.0 and fss[2] == 1.0):
-        d0 = (1.0 + fss[0] * e_avg / (1.0 - fss[0] * (1.0 - e_avg)) * missing) / energy_scale
-        d1 = (1.0 + fss[1] * e_avg / (1.0 - fss[1] * (1.0 - e_avg)) * missing) / energy_scale
-        d2 = (1.0 + fss[2] * e_avg / (1.0 - fss[2] * (1.0 - e_avg)) * missing) / energy_scale
-        CB.weight[i, 0] *= d0
-        CB.weight[i, 1] *= d1
-        CB.weight[i, 2] *= d2
-        CB.sample_weight[i] *= (d0 + d1 + d2) / 3.0
+        # F_ss above 1 (a colour > 1) has a pole at 1 / (1 - E_avg) in Cycles' formula: clamped
+        f0c, f1c, f2c = min(fss[0], 1.0), min(fss[1], 1.0), min(fss[2], 1.0)
+        d0 = (1.0 + f0c * e_avg / (1.0 - f0c * (1.0 - e_avg)) * missing) / energy_scale
+        d1 = (1.0 + f1c * e_avg / (1.0 - f1c * (1.0 - e_avg)) * missing) / energy_scale
+        d2 = (1.0 + f2c * e_avg / (1.0 - f2c * (1.0 - e_avg)) * missing) / energy_scale
+        d = (d0, d1, d2)
+        CB.weight[i, 0] *= d[0]
+        CB.weight[i, 1] *= d[1]
+        CB.weight[i, 2] *= d[2]
+        CB.sample_weight[i] *= (d[0] + d[1] + d[2]) / 3.0
 
 
 @stage_kernel
@@ -492,6 +496,11 @@ def _principled(SN, BT, j, mix_weight, wi, n, ng, backfacing, tangent, CB, count
                  w[1] * (1.0 + (coat_tint[1] ** depth - 1.0) * coat_weight),
                  w[2] * (1.0 + (coat_tint[2] ** depth - 1.0) * coat_weight))
 
+    strength = SN.emission_strength[j]
+    if strength != 0.0:  # attenuated by alpha, sheen and coat, not by the layers below
+        for ch in range(3):
+            CB.emission[ch] += SN.emission_color[j, ch] * strength * w[ch]
+
     if metallic > CLOSURE_WEIGHT_CUTOFF:
         i = _alloc(CB, count, CLOSURE_REFLECTION, scale(w, metallic), valid_n)
         if i >= 0:
@@ -627,6 +636,7 @@ def _node_closures(SN, BT, j, wi, n, ng, backfacing, tangent, CB, count):
 @inline_stage_kernel
 def setup_surface_tangent(SN, BT, material, wi, n, ng, backfacing, tangent, CB):
     """setup_surface with a tangent for anisotropic closures ((0, 0, 0): none, isotropic)."""
+    CB.emission[0] = CB.emission[1] = CB.emission[2] = 0.0
     count = 0
     start = SN.node_start[material]
     for j in range(start, start + SN.node_count[material]):
@@ -639,6 +649,7 @@ def setup_surface(SN, BT, material, wi, n, ng, backfacing, CB):
     """Expand material `material`'s nodes into closures in CB; returns their count.
     wi: unit direction to the viewer; n, ng: shading and geometric normals on wi's side;
     backfacing: the ray hit the back face (glass and refraction use 1/ior)."""
+    CB.emission[0] = CB.emission[1] = CB.emission[2] = 0.0
     count = 0
     start = SN.node_start[material]
     for j in range(start, start + SN.node_count[material]):
@@ -831,6 +842,25 @@ def surface_transparency(CB, count):
             g += CB.weight[i, 1]
             b += CB.weight[i, 2]
     return (r, g, b)
+
+
+@stage_kernel
+def surface_emission(CB):
+    """Emission of the hit's Principled BSDFs (Emission Color x Strength x mix weight), attenuated
+    by their alpha, sheen and coat as Cycles attenuates it; (0, 0, 0) when there is none."""
+    return (CB.emission[0], CB.emission[1], CB.emission[2])
+
+
+@stage_kernel
+def surface_blur(CB, count, roughness):
+    """Filter Glossy (Cycles surface_shader_prepare_closures / bsdf_microfacet_blur): raise every
+    microfacet closure's alpha to at least `roughness` (Cycles passes 0.5 sqrt(1 - blur_pdf)); the
+    energy compensation is not recomputed, as in Cycles."""
+    for i in range(count):
+        k = CB.kind[i]
+        if k == CLOSURE_REFLECTION or k == CLOSURE_REFRACTION or k == CLOSURE_GLASS:
+            CB.alpha_x[i] = max(roughness, CB.alpha_x[i])
+            CB.alpha_y[i] = max(roughness, CB.alpha_y[i])
 
 
 @stage_kernel

@@ -34,10 +34,11 @@ METAL_F82, METAL_PHYSICAL = range(2)
 
 MAX_CLOSURES = 16  # closures per hit (closures.py); Cycles drops the ones beyond its own limit likewise
 
-RGB_FIELDS = ("color", "specular_tint", "coat_tint", "sheen_tint", "edge_tint", "conductor_n", "conductor_k")
+RGB_FIELDS = ("color", "specular_tint", "coat_tint", "sheen_tint", "edge_tint", "conductor_n", "conductor_k",
+              "emission_color")
 FLOAT_FIELDS = ("weight", "roughness", "metallic", "ior", "alpha", "diffuse_roughness", "specular_ior_level",
                 "transmission", "coat_weight", "coat_roughness", "coat_ior", "sheen_weight", "sheen_roughness",
-                "anisotropic", "anisotropic_rotation", "subsurface_weight")
+                "anisotropic", "anisotropic_rotation", "subsurface_weight", "emission_strength")
 
 
 def _rgb(*v):
@@ -72,6 +73,9 @@ class SurfaceNode:
     anisotropic: float = 0.0
     anisotropic_rotation: float = 0.0
     subsurface_weight: float = 0.0
+    # optional: Principled emission (surface_emission applies Cycles' layer attenuation to it)
+    emission_color: np.ndarray = _rgb(1.0, 1.0, 1.0)
+    emission_strength: float = 0.0
 
     def __post_init__(self):
         for name in RGB_FIELDS:
@@ -141,6 +145,8 @@ class SurfaceNode:
             warnings.append(f"Subsurface Weight {self.subsurface_weight:g}: subsurface scattering is not "
                             "simulated, that part is shaded as diffuse with the clamped Base Color")
         return warnings
+
+    validate = sanitize  # the same sanitiser under the name callers may expect
 
     def sanitized(self) -> tuple["SurfaceNode", list[str]]:
         node = self.copy()
