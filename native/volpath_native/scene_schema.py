@@ -19,6 +19,7 @@ import math
 import numpy as np
 
 from . import scene as sc
+from .bsdfs import nodes as bsdf_nodes
 
 LIGHT_TYPES = {"point": sc.PointLight, "spot": sc.SpotLight, "area": sc.AreaLight, "sun": sc.SunLight}
 
@@ -40,7 +41,10 @@ _CHOICES = {
     ("Camera", "sensor_fit"): ("AUTO", "HORIZONTAL", "VERTICAL"),
     ("Film", "filter"): sc.FILTERS,
     ("AreaLight", "shape"): sc.AREA_SHAPES,
-    ("Material", "surface"): sc.SURFACE_KINDS,
+    ("Material", "surface"): sc.SURFACE_KINDS + ("diffuse",),  # 'diffuse': format 1's name of 'shaded'
+    ("SurfaceNode", "kind"): bsdf_nodes.KINDS,
+    ("SurfaceNode", "distribution"): bsdf_nodes.DISTRIBUTIONS,
+    ("SurfaceNode", "fresnel"): bsdf_nodes.FRESNEL_MODES,
     ("RenderSettings", "volume_sampling"): ("mis", "distance", "equiangular"),
     ("RenderSettings", "parallelism"): ("threads", "processes"),
 }
@@ -245,6 +249,9 @@ def check_header(header, arrays: dict, where: str) -> None:
             _check_object(m, dataclass_fields(sc.Medium), where, path, "Medium")
     for i, mat in enumerate(materials):
         _check_object(mat, dataclass_fields(sc.Material), where, f"materials[{i}]", "Material")
+        for k, node in enumerate(mat.get("surface_nodes", [])):
+            _check_object(node, dataclass_fields(bsdf_nodes.SurfaceNode), where, f"materials[{i}].surface_nodes[{k}]",
+                          "SurfaceNode")
         medium = mat.get("medium", -1)
         if not -1 <= medium < n_media:
             _fail(where, f"materials[{i}].medium", f"index {medium} out of range ({n_media} media)")

@@ -133,3 +133,31 @@ def test_shadow_rays_pass_transparent_cards_with_their_colour():
     # rtol: shadow rays start epsilon (2e-4 m here) off the surface, 2 m from the lamp
     np.testing.assert_allclose(result.image[..., :3], expected, rtol=1e-3)
     assert not np.allclose(result.image[..., :3], expected * np.sqrt(tint), rtol=1e-2)
+
+
+def test_surface_nodes_survive_the_vpscene_file_and_bad_records_are_named(tmp_path):
+    from volpath_native.scene import SceneError
+    from volpath_native.scene_io import load_scene, save_scene
+    import json
+    import zipfile
+
+    scene = _slab_scene(1.5, np.array([0.2, 1.0, 3.0]), 0.5, samples=4)
+    path = save_scene(scene, tmp_path / "slab.vpscene")
+    loaded = load_scene(path)
+    node = loaded.materials[0].surface_nodes[0]
+    assert node.kind == "glass" and node.ior == pytest.approx(1.5) and loaded.materials[0].medium == 0
+    np.testing.assert_array_equal(render(loaded).image, render(scene).image)
+
+    # a node of an unknown kind: one error naming file, material and node
+    with zipfile.ZipFile(path) as archive:
+        members = {name: archive.read(name) for name in archive.namelist()}
+    header = json.loads(np.load(path)["scene.json"].tobytes().decode())
+    header["materials"][0]["surface_nodes"][0]["kind"] = "velvet"
+    arrays = dict(np.load(path))
+    arrays["scene.json"] = np.frombuffer(json.dumps(header).encode(), np.uint8)
+    bad = tmp_path / "bad.vpscene"
+    with open(bad, "wb") as f:
+        np.savez(f, **arrays)
+    assert members  # the archive was read
+    with pytest.raises(SceneError, match=r"materials\[0\]\.surface_nodes\[0\]\.kind.*velvet"):
+        load_scene(bad)
