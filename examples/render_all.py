@@ -17,7 +17,7 @@ if __package__ in (None, ""):
 
 EXAMPLES = ("cornell_fog", "cornell_defaults", "spot_godrays", "area_light", "sun_window", "sun_window_godrays",
             "absorbing_medium", "anisotropic_forward", "anisotropic_backward", "emissive_medium",
-            "nested_media", "heavy_density", "albedo_grid", "smoke_plume")
+            "nested_media", "heavy_density", "near_clip_in_fog", "albedo_grid", "smoke_plume")
 
 
 def main(argv=None) -> int:
