@@ -17,8 +17,8 @@ if __package__ in (None, ""):
 
 EXAMPLES = ("cornell_fog", "cornell_defaults", "spot_godrays", "area_light", "sun_window", "sun_window_godrays",
             "absorbing_medium", "anisotropic_forward", "anisotropic_backward", "emissive_medium",
-            "nested_media", "heavy_density", "albedo_grid", "smoke_plume", "glass_of_liquid", "metals_glossy",
-            "coat_sheen", "alpha_rough_glass")
+            "nested_media", "heavy_density", "near_clip_in_fog", "albedo_grid", "smoke_plume", "glass_of_liquid",
+            "metals_glossy", "coat_sheen", "alpha_rough_glass")
 
 
 def main(argv=None) -> int:

@@ -65,6 +65,17 @@ class CameraModel:
                                    float(camera.clip_end), np.ascontiguousarray(self.rotation, dtype=np.float64),
                                    np.ascontiguousarray(self.position, dtype=np.float64))
 
+    def near_bounds(self, pad: float) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) of a box holding every camera ray's origin and the camera position, for film
+        positions up to `pad` pixels outside the frame (the pixel filter's reach): the region the
+        rays skip between the camera and the near clip."""
+        w, h = float(self.width), float(self.height)
+        xs = np.array([-pad, w + pad, -pad, w + pad])
+        ys = np.array([-pad, -pad, h + pad, h + pad])
+        origins, _, _ = self.generate_rays(xs, ys)
+        points = np.vstack([origins, self.position[None, :]])
+        return points.min(axis=0), points.max(axis=0)
+
     def generate_rays(self, film_x: np.ndarray, film_y: np.ndarray):
         """Rays through continuous full-frame film positions (x right, y DOWN from the top-left).
 

@@ -111,9 +111,15 @@ class Integrator:
         # shadow rays step through null boundaries and transparent surfaces (closest hits)
         self.has_null = bool(self.tables.tri_null.any() or self.tables.tri_transparent.any())
         self.warnings = self.lights.warnings + self.media.warnings
-        # Paths start in the camera's volume stack (Cycles volume_stack_init); orthographic rays
-        # start from different points, each with its own stack.
-        self._stack_per_path = bool(self.media.n_volumes) and scene.camera.projection != "perspective"
+        # Each path starts in the volume stack of its ray's origin, on the near clip plane (Cycles
+        # kernel/integrator/intersect_volume_stack.h integrator_volume_stack_init walks from the
+        # camera ray's P, which kernel/camera/camera.h has moved to the near clip). Perspective
+        # rays share the camera position's stack unless a volume boundary passes between the
+        # camera and the near clip plane (Cycles' is_inside_volume test on the viewplane bounds,
+        # scene/camera.cpp device_update_volume); orthographic rays start from different points.
+        self._stack_per_path = bool(self.media.n_volumes) and (
+            scene.camera.projection != "perspective"
+            or self.media.boundary_meets_box(*self.camera.near_bounds(self.filter.support + 1.0)))
         self._camera_stack = self.media.empty_stack(1)[0]
         if self.media.n_volumes and not self._stack_per_path:
             self._camera_stack = self.media.stack_at(self.camera.position[None, :])[0]

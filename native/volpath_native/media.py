@@ -92,6 +92,16 @@ class MediaTable:
         for sigma_s, g in world_lobes:
             self._world_lobe_sigma[int(np.searchsorted(self.phase_g_values, g))] += sigma_s
 
+    def boundary_meets_box(self, lo: np.ndarray, hi: np.ndarray) -> bool:
+        """Whether the bounding box of some volume boundary triangle overlaps the box [lo, hi]
+        (conservative: False means no boundary passes through the box)."""
+        corners = self.accel.corners[self.tri_volume >= 0]
+        if len(corners) == 0:
+            return False
+        pad = self.accel.epsilon
+        overlap = (corners.min(axis=1) <= hi + pad) & (corners.max(axis=1) >= lo - pad)
+        return bool(np.any(overlap.all(axis=1)))
+
     def stack_at(self, points: np.ndarray, max_crossings: int = 256) -> np.ndarray:
         """Volume-stack counters for arbitrary points, by walking a ray to infinity and counting
         boundary crossings (Cycles does the same for the camera: volume_stack_init)."""

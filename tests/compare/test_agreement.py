@@ -19,7 +19,7 @@ RUNS = 8
 SCENES = [
     "cornell_fog", "cornell_defaults", "spot_godrays", "area_light", "sun_window", "sun_window_godrays",
     "absorbing_medium", "anisotropic_forward", "anisotropic_backward", "emissive_medium", "nested_media", "heavy_density",
-    "albedo_grid",
+    "near_clip_in_fog", "albedo_grid",
     "glass_of_liquid", "metals_glossy", "coat_sheen", "alpha_rough_glass",
 ]
 

@@ -208,3 +208,33 @@ def test_equiangular_span_form_matches_two_angles(light, t_end):
         t = equiangular_sample1((delta, D, span), u)
         expected = delta + D * np.tan(theta_a + u * (theta_b - theta_a))
         np.testing.assert_allclose(t, expected, rtol=1e-9, atol=1e-12 * max(1.0, abs(delta)))
+
+
+
+@pytest.mark.parametrize("lo, hi", [([-5, -5, -0.7], [0, 5, 9.95]), ([-5, -5, 9.95], [5, 5, 12.0])],
+                         ids=["camera-outside", "camera-inside"])
+def test_paths_start_in_the_stack_of_their_near_clip_origin(lo, hi):
+    """A perspective camera at z = 10 looking down, near clip 0.1 (origins at z = 9.9), and an
+    absorbing box whose top or bottom face (z = 9.95) lies between the camera and the near clip:
+    rays start on the other side of that face than the camera, so each path must start in the
+    volume stack of its ray's origin (Cycles kernel/integrator/intersect_volume_stack.h walks from
+    the camera ray's P, which kernel/camera/camera.h puts on the near clip). camera-outside: the
+    box covers x < 0, so the near clip plane also straddles its side face and only the left half
+    of the pixels starts inside. White world: T = exp(-sigma_a d) exactly, d from the origin to
+    the box's bottom for origins inside the box, 1 elsewhere."""
+    from volpath_native.camera import CameraModel
+
+    sigma_a = np.array([0.05, 0.1, 0.2])
+    cam = Camera(camera_at([0, 0, 10.0]), fov=np.radians(40), clip_start=0.1, clip_end=100)
+    film = tiny_box_film(8)
+    scene = Scene(camera=cam, film=film, meshes=[box_mesh("box", lo, hi)],
+                  materials=[Material("bound", surface="null", medium=0)],
+                  media=[Medium("absorber", sigma_s=0.0, sigma_a=sigma_a)], world=World(background=[1.0, 1.0, 1.0]),
+                  settings=RenderSettings(samples=4, seed=3, volume_bounces=0))
+    result = render(scene)
+    xs, ys = np.meshgrid(np.arange(8) + 0.5, np.arange(8) + 0.5)
+    origins, dirs, _ = CameraModel(cam, film).generate_rays(xs.ravel(), ys.ravel())
+    inside = np.all((origins > lo) & (origins < hi), axis=1)
+    depth = (origins[:, 2] - lo[2]) / -dirs[:, 2]  # rays inside go down and outward: they leave at the bottom
+    expected = np.where(inside[:, None], np.exp(-np.outer(depth, sigma_a)), 1.0).reshape(8, 8, 3)
+    np.testing.assert_allclose(result.image[..., :3], expected, rtol=1e-5)
