@@ -15,6 +15,7 @@ from pathlib import Path
 DEMO_RESOLUTION = (128, 128)
 DEMO_SAMPLES = 128
 DEMO_RUNS = 8
+DEMO_EXAMPLE = "glass_of_liquid"  # the headline scene: coloured liquid in glass, in fog, under a spot
 
 
 def _parse_resolution(text: str) -> tuple:
@@ -33,7 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="compare one .blend file")
     run.add_argument("blend", type=Path, help="the .blend file (its active scene is rendered)")
-    demo = sub.add_parser("demo", help="build the Cornell fog example and compare it")
+    demo = sub.add_parser("demo", help="build an example scene (default: the glass of liquid in fog) and compare it")
     for p in (run, demo):
         p.add_argument("--out", type=Path, required=True, help="output folder")
         p.add_argument("--mode", choices=("equal-samples", "equal-time"), default="equal-samples")
@@ -45,6 +46,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--resolution", type=_parse_resolution, help="override, e.g. 64x64")
     run.add_argument("--spp", type=int, default=64, help="equal-samples: total samples per pixel per engine")
     demo.add_argument("--spp", type=int, default=DEMO_SAMPLES)
+    demo.add_argument("--example", default=DEMO_EXAMPLE,
+                      help="a module of examples/ with a build(resolution, samples) function, e.g. cornell_fog")
     ref = sub.add_parser("reference", help="render a high-sample Cycles reference EXR of a .blend "
                                            "(matched settings, for --reference)")
     ref.add_argument("blend", type=Path)
@@ -126,7 +129,7 @@ def main(argv=None) -> int:
         options.validate()
         with quiet_stdout():
             if args.command == "demo":
-                result = run_demo(args.out, options)
+                result = run_demo(args.out, options, args.example)
             else:
                 result = runner.compare_file(args.blend, options, args.out, TextProgress())
     except cycles_engine.CyclesUnavailable as error:
@@ -168,8 +171,10 @@ def write_reference(args) -> int:
     return 0
 
 
-def run_demo(out_dir: Path, options):
-    """Build examples/cornell_fog.py's scene, save it next to the results, compare."""
+def run_demo(out_dir: Path, options, example: str = DEMO_EXAMPLE):
+    """Build examples/<example>.py's scene, save it next to the results, compare."""
+    import importlib
+
     import bpy
 
     from . import runner
@@ -177,14 +182,15 @@ def run_demo(out_dir: Path, options):
     root = Path(__file__).resolve().parents[2]
     if str(root) not in sys.path:
         sys.path.insert(0, str(root))
-    from examples import cornell_fog, scene_builder
+    from examples import scene_builder
 
+    module = importlib.import_module(f"examples.{example}")
     if options.resolution is None:
         options.resolution = DEMO_RESOLUTION
-    cornell_fog.build(resolution=options.resolution, samples=options.samples)
+    module.build(resolution=options.resolution, samples=options.samples)
     _register_addon()
     out_dir = Path(out_dir)
-    blend = scene_builder.save(out_dir / "cornell_fog.blend")
+    blend = scene_builder.save(out_dir / f"{example}.blend")
     result = runner.compare_scene(bpy.context.scene, options, out_dir, TextProgress())
     result.outputs["blend"] = blend
     return result

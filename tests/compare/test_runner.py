@@ -127,12 +127,12 @@ def test_cli_run(tmp_path, registered_addon):
 
 
 def test_cli_demo_tiny(tmp_path):
-    """`make demo`'s command, shrunk: builds the Cornell fog scene, renders both, writes everything."""
+    """`make demo`'s command, shrunk: builds the glass-of-liquid scene, renders both, writes everything."""
     proc = subprocess.run([sys.executable, "-m", "addon.compare", "demo", "--out", str(tmp_path),
                            "--resolution", "16x16", "--spp", "8", "--runs", "2"],
                           cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    for name in ("cornell_fog.blend", "volpath.exr", "cycles.exr", "sheet.png", "report.json", "report.md"):
+    for name in ("glass_of_liquid.blend", "volpath.exr", "cycles.exr", "sheet.png", "report.json", "report.md"):
         assert (tmp_path / name).is_file(), name
     assert "100.0%" in proc.stderr  # the progress bar reached the end
     assert "Fra:" not in proc.stdout  # Cycles' per-sample chatter is kept off the terminal
