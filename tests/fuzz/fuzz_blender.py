@@ -45,6 +45,8 @@ SOCKETS = {
     "ShaderNodeBsdfDiffuse": {"Color": (0.6, 0, 1), "Roughness": (0.0, 0, 1)},
     "ShaderNodeBsdfPrincipled": {"Base Color": (0.7, 0, 1), "Metallic": (0.0, 0, 1),
                                  "Transmission Weight": (0.0, 0, 1), "Alpha": (1.0, 0, 1),
+                                 "Roughness": (0.5, 0, 1), "IOR": (1.5, 1, 3), "Coat Weight": (0.0, 0, 1),
+                                 "Sheen Weight": (0.0, 0, 1), "Specular IOR Level": (0.5, 0, 1),
                                  "Emission Color": (1.0, 0, 1), "Emission Strength": (0.0, 0, 10)},
     "ShaderNodeEmission": {"Color": (1.0, 0, 1), "Strength": (2.0, 0, 10)},
     "ShaderNodeVolumePrincipled": {"Color": (0.5, 0, 1), "Density": (1.0, 0, 10), "Anisotropy": (0.2, -1, 1),
@@ -53,12 +55,14 @@ SOCKETS = {
     "ShaderNodeVolumeScatter": {"Color": (0.8, 0, 1), "Density": (0.5, 0, 10), "Anisotropy": (0.0, -1, 1)},
     "ShaderNodeVolumeAbsorption": {"Color": (0.4, 0, 1), "Density": (0.5, 0, 10)},
     "ShaderNodeBsdfToon": {},    # unsupported: named
-    "ShaderNodeBsdfGlossy": {},  # unsupported: named
+    "ShaderNodeBsdfGlossy": {"Color": (0.8, 0, 1), "Roughness": (0.5, 0, 1)},
+    "ShaderNodeBsdfGlass": {"Color": (1.0, 0, 1), "Roughness": (0.0, 0, 1), "IOR": (1.45, 1, 3)},
+    "ShaderNodeBsdfTransparent": {"Color": (0.5, 0, 1)},
 }
 SURFACES = ("ShaderNodeBsdfDiffuse", "ShaderNodeBsdfPrincipled", "ShaderNodeEmission", "ShaderNodeBsdfToon",
-            "ShaderNodeBsdfGlossy")
+            "ShaderNodeBsdfGlossy", "ShaderNodeBsdfGlass", "ShaderNodeBsdfTransparent")
 VOLUMES = ("ShaderNodeVolumePrincipled", "ShaderNodeVolumeScatter", "ShaderNodeVolumeAbsorption")
-UNSUPPORTED = ("ShaderNodeBsdfToon", "ShaderNodeBsdfGlossy")
+UNSUPPORTED = ("ShaderNodeBsdfToon",)
 
 
 def node(kinds):
