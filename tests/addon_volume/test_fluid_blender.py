@@ -11,6 +11,12 @@ from blender_process import BLENDER, run_blender
 import fluid_runtime
 
 FRAMES = range(27, 32)
+# Run before -a: the meshes VolPath exports outside and inside the cache range (the domain's box
+# must never be one of them), through the installed legacy add-on `volpath`.
+_MESHES = ("import bpy; from volpath.export import export_scene; s = bpy.context.scene; s.volpath.samples = 16\n"
+           "for f in (27, 29):\n"
+           "    s.frame_set(f); native, _ = export_scene(bpy.context.evaluated_depsgraph_get())\n"
+           "    print('MESHES', f, sorted(m.name for m in native.meshes))")
 
 
 def read_exr(path):
@@ -23,7 +29,7 @@ def test_animation_renders_every_frame_of_the_baked_range(installed_blender, tmp
     _, env = installed_blender
     folder = fluid_runtime.copy_data(tmp_path / "data")
     out = run_blender([BLENDER, "-b", folder / "smoke.blend", "-E", "VOLPATH",
-                       "--python-expr", "import bpy; bpy.context.scene.volpath.samples = 16",
+                       "--python-expr", _MESHES,
                        "-o", tmp_path / "render_####", "-F", "OPEN_EXR", "-s", FRAMES[0], "-e", FRAMES[-1], "-a"],
                       env, timeout=900)
     images = {}
@@ -44,3 +50,4 @@ def test_animation_renders_every_frame_of_the_baked_range(installed_blender, tmp
     # Each frame is its own simulation step (the plume grows), not a repeat.
     assert np.abs(images[30] - images[28]).mean() > 1e-3
     assert "outside the cache range 28-30" in out
+    assert "MESHES 27 ['Floor']" in out and "MESHES 29 ['Floor', 'Smoke Domain bounds']" in out, out[-3000:]
