@@ -277,25 +277,28 @@ def _cache_grids(settings, layout: DomainLayout, names, frame, obj) -> dict:
     files = {"data": _frame_file(settings, obj, "data", frame, ".vdb")}
     if layout.noise_scale > 1 and any(SMOKE_ATTRIBUTES[n][2] for n in names):
         files["noise"] = _frame_file(settings, obj, "noise", frame, ".vdb")
-    found = {}
+    listed = {}  # file kind -> names of the grids it holds
     for kind, path in files.items():
         if not os.path.isfile(path):
             raise _BadCache(f"no {kind} cache file {path} (not baked for this frame?)")
         try:
-            grids, _ = openvdb.readAll(path)
+            listed[kind] = {grid.name for grid in openvdb.readAllGridMetadata(path)}
         except Exception as error:  # noqa: BLE001 - openvdb raises RuntimeError/IOError/...
             raise _BadCache(f"the cache file {path} cannot be read ({type(error).__name__}: {error})") from None
-        for grid in grids:
-            found[(kind, grid.name)] = grid
 
     suffix, kind = ("_noise", "noise") if "noise" in files else ("", "data")
     base = layout.base_resolution
     upres = layout.resolution("density") if "noise" in files else base
 
     def read(file_kind, grid_name, resolution):
-        grid = found.get((file_kind, grid_name))
-        if grid is None:
+        """One grid of a file (only those the material needs: velocity is the largest) as an array."""
+        if grid_name not in listed[file_kind]:
             return None
+        try:
+            grid = openvdb.read(files[file_kind], grid_name)
+        except Exception as error:  # noqa: BLE001
+            raise _BadCache(f"the cache file {files[file_kind]} cannot be read "
+                            f"({type(error).__name__}: {error})") from None
         # Mantaflow records its grid resolution; an adaptive domain's changes per frame.
         stored = tuple(int(v) for v in grid.metadata.get("file_base_resolution", resolution))
         if stored != tuple(resolution):
