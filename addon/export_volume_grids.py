@@ -143,7 +143,9 @@ def _dense_copy(grid, warnings: list, label: str, box=None) -> Optional[DenseGri
     grid.copyToArray(data, ijk=tuple(int(v) for v in lo))
     data = data.astype(np.float32, copy=False)
     if not np.all(np.isfinite(data)):
-        warnings.append(f"{label}: grid '{grid.name}' has non-finite values, replaced by 0")
+        # Cycles' max(density x NaN, 0) is 0 (kernel/svm/closure.h); inf would give non-finite weights.
+        bad = int((~np.isfinite(data)).reshape(data.shape[:3] + (-1,)).any(axis=-1).sum())
+        warnings.append(f"{label}: grid '{grid.name}' has {bad} non-finite voxels (NaN/inf), treated as 0")
         data = np.nan_to_num(data, nan=0.0, posinf=0.0, neginf=0.0)
     index_shift = np.eye(4)
     index_shift[:3, 3] = lo  # data index -> OpenVDB index

@@ -20,13 +20,17 @@ What Cycles 5.0 does with a domain (blender/blender intern/cycles/blender/, see
 - Smoke domains are not object-space volumes: the density factor is 1 (scene/object.cpp).
 
 Where the grids come from, in order (FLUID_SOURCES):
-1. the fluid runtime: the evaluated domain's RNA arrays, as Cycles reads them;
-2. the domain's OpenVDB cache files for the frame (data/fluid_data_NNNN.vdb, noise/fluid_noise_NNNN.vdb),
-   read with Blender's `openvdb` module, when the runtime hands over no voxels: the bpy 5.0.1
-   wheel's Mantaflow cannot load a cache (its Python classes lack their C++ base classes); Debian's
-   Blender 3.4 has no openvdb module but a working runtime. The cache holds Mantaflow's own grids:
-   'density'/'density_noise', 'flame'/'flame_noise', 'color_r/g/b'(_noise), 'temperature' (heat);
-   the getters' conversions above are applied to them.
+1. the domain's OpenVDB cache files for the frame (data/fluid_data_NNNN.vdb, noise/fluid_noise_NNNN.vdb),
+   read with Blender's `openvdb` module. They hold Mantaflow's own grids ('density'/'density_noise',
+   'flame'/'flame_noise', 'color_r/g/b'(_noise), 'temperature' = heat); the getters' conversions
+   above are applied, which gives exactly the runtime's arrays (tests/addon_volume/test_fluid_domains.py).
+   First, because the runtime cannot always be trusted: the bpy 5.0.1 wheel's Mantaflow cannot load
+   a cache at all (its Python classes lack their C++ base classes: all zeros), and Blender's runtime
+   keeps the previous frame's grids when a frame's file is missing or corrupt (3.4 and 5.0).
+   A missing, corrupt or mismatched cache file is bad input: nothing renders.
+2. the fluid runtime, the evaluated domain's RNA arrays as Cycles reads them, when this Blender
+   cannot read the cache (Debian's Blender 3.4 has no openvdb module; Uni/Raw caches), provided
+   the frame's cache file exists.
 The source used is logged (printed) once per domain and frame.
 
 Not supported, each with a warning naming the object and nothing drawn: liquid domains, fluid
@@ -45,7 +49,7 @@ import numpy as np
 from .grid_media import DenseGrid, ExportedVolume, material_grid_names
 
 #: Where grids are read from, in order; tests pin one source.
-FLUID_SOURCES = ("runtime", "cache")
+FLUID_SOURCES = ("cache", "runtime")
 
 # Cycles' smoke attributes (blender/volume.cpp BlenderSmokeLoader): name -> (RNA array, channels,
 # at the noise resolution when noise upres is on). Velocity is only read for motion blur.
@@ -136,12 +140,16 @@ def export_domain(obj, object_to_world, frame: int, warnings: list,
 
     grids, source, reasons = None, None, []
     for name in (sources or FLUID_SOURCES):
-        read = _runtime_grids if name == "runtime" else _cache_grids
-        grids, reason = read(settings, layout, names, frame, obj)
-        if grids is not None:
-            source = name
-            break
-        reasons.append(reason)
+        try:
+            grids = _READERS[name](settings, layout, names, frame, obj)
+        except _Unreadable as why:  # this Blender cannot use this source: try the next one
+            reasons.append(str(why))
+            continue
+        except _BadCache as why:  # the cache is wrong for this frame: another source would be stale
+            warnings.append(f"{label}: {why}; not rendered")
+            return None
+        source = name
+        break
     if grids is None:
         warnings.append(f"{label}: {'; '.join(reasons)}; not rendered")
         return None
@@ -203,8 +211,34 @@ def _from_flat(flat: np.ndarray, resolution, channels: int) -> np.ndarray:
     return grid.transpose((2, 1, 0, 3) if channels > 1 else (2, 1, 0))
 
 
-def _runtime_grids(settings, layout: DomainLayout, names, frame, obj):
-    """(grids, None) from the evaluated domain's RNA arrays, or (None, why) when it has no voxels."""
+class _Unreadable(Exception):
+    """This Blender cannot read the grids this way (no openvdb module, another cache format)."""
+
+
+class _BadCache(Exception):
+    """The domain's cache is missing, incomplete or broken for the frame."""
+
+
+def _frame_file(settings, obj, kind: str, frame: int, extension: str) -> str:
+    # Cache types All/Modular load frame - offset (blenkernel/intern/fluid.cc processDomain);
+    # Mantaflow names files <kind>/fluid_<kind>_####.<ext> (intern/mantaflow/intern/MANTA_main.cpp).
+    if settings.cache_type in ("ALL", "MODULAR"):
+        frame -= settings.cache_frame_offset
+    return os.path.join(cache_folder(settings, obj), kind, f"fluid_{kind}_{frame:04d}{extension}")
+
+
+_EXTENSIONS = {"OPENVDB": ".vdb", "UNI": ".uni", "RAW": ".raw"}
+
+
+def _runtime_grids(settings, layout: DomainLayout, names, frame, obj) -> dict:
+    """The evaluated domain's RNA arrays. A frame whose cache file is missing or unreadable keeps
+    the previous frame's grids in Blender's runtime (seen in 3.4 and 5.0): the file must exist."""
+    folder = cache_folder(settings, obj)
+    if not os.path.isdir(folder):
+        raise _BadCache(f"the cache folder {folder} does not exist (not baked?)")
+    data = _frame_file(settings, obj, "data", frame, _EXTENSIONS.get(settings.cache_data_format, ".vdb"))
+    if not os.path.isfile(data):
+        raise _BadCache(f"no data cache file {data} (not baked for this frame?)")
     grids = {}
     for name in names:
         prop, channels, _ = SMOKE_ATTRIBUTES[name]
@@ -218,8 +252,8 @@ def _runtime_grids(settings, layout: DomainLayout, names, frame, obj):
         grids[name] = _from_flat(flat, resolution, channels)
     # Without colour grids the colour is a constant (alpha 1) everywhere: not a sign of data.
     if not any(np.any(grid != 0) for name, grid in grids.items() if name != "color"):
-        return None, "the fluid runtime handed over no voxels"
-    return grids, None
+        raise _BadCache("the fluid runtime handed over no voxels")
+    return grids
 
 
 def cache_folder(settings, obj) -> str:
@@ -227,91 +261,90 @@ def cache_folder(settings, obj) -> str:
     return os.path.normpath(bpy.path.abspath(settings.cache_directory, library=library))
 
 
-def _cache_grids(settings, layout: DomainLayout, names, frame, obj):
-    """(grids, None) from the OpenVDB cache files of the frame, or (None, why)."""
+def _cache_grids(settings, layout: DomainLayout, names, frame, obj) -> dict:
+    """The grids of the frame from its OpenVDB cache files, with the getters' conversions."""
     from .. import export_volume_grids as volume_grids  # Blender's openvdb module
 
-    folder = cache_folder(settings, obj)
     if settings.cache_data_format != "OPENVDB":
-        return None, f"its {settings.cache_data_format} cache cannot be read (only OpenVDB caches)"
-    if not os.path.isdir(folder):
-        return None, f"the cache folder {folder} does not exist (not baked?)"
+        raise _Unreadable(f"its {settings.cache_data_format} cache files cannot be read (only OpenVDB)")
     try:
         openvdb = volume_grids.import_openvdb()
-    except volume_grids.OpenVDBUnavailable as error:
-        return None, f"its cache cannot be read: {error}"
-    # Cache types All/Modular load frame - offset (blenkernel/intern/fluid.cc processDomain).
-    file_frame = frame - (settings.cache_frame_offset if settings.cache_type in ("ALL", "MODULAR") else 0)
-    files = {"data": os.path.join(folder, "data", f"fluid_data_{file_frame:04d}.vdb")}
+    except volume_grids.OpenVDBUnavailable:
+        raise _Unreadable("this Blender has no openvdb module to read its cache files") from None
+    folder = cache_folder(settings, obj)
+    if not os.path.isdir(folder):
+        raise _BadCache(f"the cache folder {folder} does not exist (not baked?)")
+    files = {"data": _frame_file(settings, obj, "data", frame, ".vdb")}
     if layout.noise_scale > 1 and any(SMOKE_ATTRIBUTES[n][2] for n in names):
-        files["noise"] = os.path.join(folder, "noise", f"fluid_noise_{file_frame:04d}.vdb")
-    found = {}
+        files["noise"] = _frame_file(settings, obj, "noise", frame, ".vdb")
+    listed = {}  # file kind -> names of the grids it holds
     for kind, path in files.items():
         if not os.path.isfile(path):
-            return None, f"no {kind} cache file {path} (not baked for this frame?)"
+            raise _BadCache(f"no {kind} cache file {path} (not baked for this frame?)")
         try:
-            grids, _ = openvdb.readAll(path)
+            listed[kind] = {grid.name for grid in openvdb.readAllGridMetadata(path)}
         except Exception as error:  # noqa: BLE001 - openvdb raises RuntimeError/IOError/...
-            return None, f"the cache file {path} cannot be read ({type(error).__name__}: {error})"
-        for grid in grids:
-            found[(kind, grid.name)] = grid
+            raise _BadCache(f"the cache file {path} cannot be read ({type(error).__name__}: {error})") from None
 
     suffix, kind = ("_noise", "noise") if "noise" in files else ("", "data")
-    base, upres = layout.base_resolution, layout.resolution("density")
+    base = layout.base_resolution
+    upres = layout.resolution("density") if "noise" in files else base
 
     def read(file_kind, grid_name, resolution):
-        grid = found.get((file_kind, grid_name))
-        if grid is None:
+        """One grid of a file (only those the material needs: velocity is the largest) as an array."""
+        if grid_name not in listed[file_kind]:
             return None
+        try:
+            grid = openvdb.read(files[file_kind], grid_name)
+        except Exception as error:  # noqa: BLE001
+            raise _BadCache(f"the cache file {files[file_kind]} cannot be read "
+                            f"({type(error).__name__}: {error})") from None
         # Mantaflow records its grid resolution; an adaptive domain's changes per frame.
         stored = tuple(int(v) for v in grid.metadata.get("file_base_resolution", resolution))
         if stored != tuple(resolution):
-            raise _Mismatch(f"the cache's '{grid_name}' grid is {stored} voxels, the domain {tuple(resolution)}")
+            raise _BadCache(f"the cache's '{grid_name}' grid is {stored} voxels, the domain {tuple(resolution)} "
+                            "(a cache from another bake?)")
         if grid.valueTypeName not in ("float", "double"):
-            raise _Mismatch(f"the cache's '{grid_name}' grid holds {grid.valueTypeName} values, not floats")
+            raise _BadCache(f"the cache's '{grid_name}' grid holds {grid.valueTypeName} values, not floats")
         array = np.zeros(tuple(resolution), dtype=np.float64 if grid.valueTypeName == "double" else np.float32)
         if grid.activeVoxelCount():
             lo, hi = grid.evalActiveVoxelBoundingBox()
             if min(lo) < 0 or any(h >= n for h, n in zip(hi, resolution)):
-                raise _Mismatch(f"the cache's '{grid_name}' voxels {lo}..{hi} lie outside the domain's "
-                                f"{tuple(resolution)}")
+                raise _BadCache(f"the cache's '{grid_name}' voxels {lo}..{hi} lie outside the domain's "
+                                f"{tuple(resolution)} (a cache from another bake?)")
             grid.copyToArray(array, ijk=(0, 0, 0))
         return array.astype(np.float32, copy=False)
 
-    try:
-        density = read(kind, "density" + suffix, upres)
-        if density is None:
-            return None, f"the cache file {files[kind]} has no '{'density' + suffix}' grid"
-        flame = read(kind, "flame" + suffix, upres)
-        grids = {}
-        for name in names:
-            if name == "density":
-                grids[name] = density
-            elif name == "flame" and flame is not None:
-                grids[name] = flame
-            elif name == "temperature" and flame is not None:
-                # rna_fluid.cc rna_FluidModifier_temperature_grid_get
-                ignition, hottest = float(settings.flame_ignition), float(settings.flame_max_temp)
-                grids[name] = np.where(flame > _FLAME_THRESHOLD, ignition + flame * (hottest - ignition),
-                                       0.0).astype(np.float32)
-            elif name == "heat":
-                heat = read("data", "temperature", base)  # Mantaflow's heat, saved as 'temperature'
-                if heat is not None:
-                    grids[name] = heat * np.float32(0.5)  # rna_FluidModifier_heat_grid_get: -2..2 -> -1..1
-            elif name == "color":
-                channels = [read(kind, f"color_{c}{suffix}", upres) for c in "rgb"]
-                if all(c is not None for c in channels):  # manta_fluid_API.cpp get_rgba
-                    grids[name] = np.stack([c * density for c in channels] + [density], axis=-1)
-                else:  # get_rgba_fixed_color: the flows' smoke colour, alpha 1
-                    grids[name] = np.broadcast_to(np.append(_active_color(obj), 1.0).astype(np.float32),
-                                                  tuple(upres) + (4,))
-    except _Mismatch as error:
-        return None, f"{error} (cache from another bake?)"
-    return grids, None
+    density = read(kind, "density" + suffix, upres)
+    if density is None:
+        raise _BadCache(f"the cache file {files[kind]} has no '{'density' + suffix}' grid")
+    flame = read(kind, "flame" + suffix, upres)
+    grids = {}
+    for name in names:
+        if name == "density":
+            grids[name] = density
+        elif name == "flame" and flame is not None:
+            grids[name] = flame
+        elif name == "temperature" and flame is not None:
+            # rna_fluid.cc rna_FluidModifier_temperature_grid_get
+            ignition, hottest = float(settings.flame_ignition), float(settings.flame_max_temp)
+            grids[name] = np.where(flame > _FLAME_THRESHOLD, ignition + flame * (hottest - ignition),
+                                   0.0).astype(np.float32)
+        elif name == "heat":
+            heat = read("data", "temperature", base)  # Mantaflow's heat, saved as 'temperature'
+            if heat is not None:
+                grids[name] = heat * np.float32(0.5)  # rna_FluidModifier_heat_grid_get: -2..2 -> -1..1
+        elif name == "color":
+            channels = [read(kind, f"color_{c}{suffix}", upres) for c in "rgb"]
+            if all(c is not None for c in channels):  # manta_fluid_API.cpp get_rgba
+                grids[name] = np.stack([c * density for c in channels] + [density], axis=-1)
+            else:  # get_rgba_fixed_color: the flows' smoke colour, alpha 1
+                grids[name] = np.broadcast_to(np.append(_active_color(obj), 1.0).astype(np.float32),
+                                              tuple(upres) + (4,))
+    return grids
 
 
-class _Mismatch(ValueError):
-    pass
+_READERS = {"cache": _cache_grids, "runtime": _runtime_grids}
 
 
 def _active_color(domain) -> np.ndarray:

@@ -69,7 +69,7 @@ def test_validator_rejects_a_broken_manifest(tmp_path):
 # ----------------------------------------------------------------------------------------------
 # A real Blender executable
 # ----------------------------------------------------------------------------------------------
-BLENDER = os.environ.get("BLENDER") or shutil.which("blender") or "/usr/bin/blender"
+from blender_process import BLENDER, run_blender as _run  # noqa: E402,F401  (tests/blender_process.py)
 
 _SCENE_SCRIPT = textwrap.dedent('''
     import math, sys, bpy
@@ -127,19 +127,8 @@ _SCENE_SCRIPT = textwrap.dedent('''
 ''')
 
 
-def _run(cmd, env, timeout=600):  # a fresh install compiles every numba kernel (~100 s on 2 loaded cores)
-    proc = subprocess.run([str(c) for c in cmd], env=env, capture_output=True, text=True, timeout=timeout)
-    assert proc.returncode == 0, f"{cmd}\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
-    return proc.stdout
-
-
-@pytest.mark.skipif(not Path(BLENDER).exists(), reason="no Blender executable (set $BLENDER)")
-def test_installed_in_blender_renders_headless(tmp_path):
-    home = tmp_path / "home"
-    env = dict(os.environ, HOME=str(home), BLENDER_USER_CONFIG=str(home / "config"),
-               BLENDER_USER_SCRIPTS=str(home / "scripts"))
-    env.pop("PYTHONPATH", None)
-    _run(["make", "-s", "-C", ROOT, "install-blender", f"BLENDER={BLENDER}"], env)
+def test_installed_in_blender_renders_headless(installed_blender, tmp_path):
+    home, env = installed_blender  # a fresh install: the first render compiles every kernel (~100 s)
     assert not (Path.home() / ".config" / "blender" / "volpath-test-marker").exists()
 
     scene_file = tmp_path / "fog.blend"

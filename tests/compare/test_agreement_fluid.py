@@ -25,13 +25,14 @@ from addon.compare import cycles_engine, metrics, runner, volpath_engine
 import fluid_runtime
 
 RESOLUTION = (32, 32)
-SAMPLES = 1024  # per run, both engines
 VOLPATH_RUNS, CYCLES_RUNS = 4, 3
 BLOCK = 4
 ALPHA = 1e-3  # one test per scene; seeds are fixed, so the outcome is deterministic
 PLANTED_DENSITY_ERROR = 1.10
 
-SCENES = {"smoke": ("smoke", 30), "fire": ("fire", 30)}
+# (file, frame, samples per run for both engines). The fire's planted error is glaring (flames
+# seen through 10 % denser smoke): a quarter of the smoke's samples keeps it 5x over the tolerance.
+SCENES = {"smoke": ("smoke", 30, 1024), "fire": ("fire", 30, 256)}
 
 
 @pytest.fixture()
@@ -47,9 +48,9 @@ def _principled(domain):
     return next(n for n in domain.active_material.node_tree.nodes if n.bl_idname == "ShaderNodeVolumePrincipled")
 
 
-def _volpath_statistics(scene):
+def _volpath_statistics(scene, samples):
     native_scene, warnings = volpath_engine.export(scene, RESOLUTION)
-    runs = volpath_engine.render_runs(native_scene, runs=VOLPATH_RUNS, samples=SAMPLES, base_seed=1)
+    runs = volpath_engine.render_runs(native_scene, runs=VOLPATH_RUNS, samples=samples, base_seed=1)
     return native_scene, warnings, metrics.run_statistics([run.image for run in runs])
 
 
@@ -58,9 +59,9 @@ def _volpath_statistics(scene):
 def test_volpath_agrees_with_cycles_on_quick_smoke(fluid_scenes, case, tmp_path):
     from volpath_native.grid_medium import GridMedium
 
-    name, frame = SCENES[case]
+    name, frame, samples = SCENES[case]
     scene, domain = fluid_runtime.open_domain(fluid_scenes, name, frame)
-    native_scene, warnings, volpath = _volpath_statistics(scene)
+    native_scene, warnings, volpath = _volpath_statistics(scene, samples)
     assert not warnings, warnings
     grids = [m for m in native_scene.media if isinstance(m, GridMedium)]
     assert len(grids) == 1 and grids[0].density.max() > 0.5  # the domain is a grid medium, not a box
@@ -69,14 +70,14 @@ def test_volpath_agrees_with_cycles_on_quick_smoke(fluid_scenes, case, tmp_path)
         assert grids[0].emission_grid is not None and grids[0].emission_grid.max() > 1.0
 
     bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
-    cycles_runs = cycles_engine.render_runs(scene, runs=CYCLES_RUNS, samples=SAMPLES, base_seed=1,
+    cycles_runs = cycles_engine.render_runs(scene, runs=CYCLES_RUNS, samples=samples, base_seed=1,
                                             bounces=bounces, resolution=RESOLUTION)
     cycles = metrics.run_statistics([run.image for run in cycles_runs])
     assert cycles.channel_means.min() > 0.02  # lit, and the smoke is there in Cycles too
     test = metrics.block_relmse_test(volpath, cycles, BLOCK, ALPHA)
 
     _principled(domain).inputs["Density"].default_value *= PLANTED_DENSITY_ERROR
-    _, _, planted = _volpath_statistics(scene)
+    _, _, planted = _volpath_statistics(scene, samples)
     planted_test = metrics.block_relmse_test(planted, cycles, BLOCK, ALPHA)
 
     details = (f"{case}: VolPath {test.summary()}, planted x{PLANTED_DENSITY_ERROR} {planted_test.summary()}, "
@@ -84,7 +85,7 @@ def test_volpath_agrees_with_cycles_on_quick_smoke(fluid_scenes, case, tmp_path)
     print(details)
     if not test.passed:
         comparison = metrics.compare_runs(volpath, cycles)
-        sheet = runner.CompareResult(case, runner.CompareOptions(samples=SAMPLES, runs=CYCLES_RUNS),
+        sheet = runner.CompareResult(case, runner.CompareOptions(samples=samples, runs=CYCLES_RUNS),
                                      runner.EngineResult("VolPath", [], volpath),
                                      runner.EngineResult("Cycles", cycles_runs, cycles), comparison)
         runner.write_sheet(sheet, tmp_path / "sheet.png")

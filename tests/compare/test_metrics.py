@@ -149,3 +149,24 @@ def test_block_statistics_average_runs():
     np.testing.assert_allclose(stats.mean[0, 0], np.mean(runs, axis=0)[:2, :2].mean(axis=(0, 1)))
     with pytest.raises(ValueError):
         metrics.block_statistics(metrics.run_statistics(runs), 8)
+
+
+def test_block_relmse_test_is_calibrated_and_sees_a_spread_out_bias():
+    """Agreeing engines (skewed per-sample noise, 4 and 3 runs as the fluid agreement test) pass at
+    at most at the nominal rate; a 3 % bias over the whole image, which no pixel resolves (7 %
+    noise per pixel and run set), fails: the relMSE sums it over the blocks."""
+    rng = np.random.default_rng(6)
+    truth = _scene_like_image(rng)
+    alpha, trials, rejections = 0.1, 60, 0
+    for _ in range(trials):
+        a = metrics.run_statistics(_runs(rng, 4, truth, 8))
+        b = metrics.run_statistics(_runs(rng, 3, truth, 8))
+        test = metrics.block_relmse_test(a, b, 4, alpha)
+        rejections += not test.passed
+        assert 0.3 < test.relmse / test.expected < 3.0
+    assert rejections <= 0.1 * trials + 4 * np.sqrt(0.1 * 0.9 * trials), rejections  # not anti-conservative
+    reference = metrics.run_statistics(_runs(rng, 3, truth, 64))
+    assert metrics.block_relmse_test(metrics.run_statistics(_runs(rng, 4, truth, 64)), reference, 4, 1e-3).passed
+    biased = metrics.run_statistics(_runs(rng, 4, truth * 1.03, 64))
+    test = metrics.block_relmse_test(biased, reference, 4, 1e-3)
+    assert not test.passed and metrics.pixel_t_test(biased, reference).passed
