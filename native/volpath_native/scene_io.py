@@ -110,7 +110,7 @@ def load_scene(path) -> sc.Scene:
             members = _array_headers(stream, where)
         except sc.SceneError:
             raise
-        except (zipfile.BadZipFile, EOFError, ValueError, OSError, KeyError, struct.error) as error:
+        except _DAMAGED as error:
             raise sc.SceneError(f"{where}: not a readable VolPath scene (truncated or not a .vpscene "
                                 f"archive: {error})") from None
     if "scene.json" not in members:
@@ -129,8 +129,14 @@ def load_scene(path) -> sc.Scene:
             return _build(header, data, where)
     except sc.SceneError:
         raise
-    except (zipfile.BadZipFile, EOFError, ValueError, OSError, KeyError, zlib.error) as error:
+    except _DAMAGED as error:
         raise sc.SceneError(f"{where}: damaged archive ({type(error).__name__}: {error})") from None
+
+
+# What zipfile, zlib and numpy raise on damaged bytes (a flipped byte may name an unknown
+# compression method -- NotImplementedError -- or an encrypted member -- RuntimeError).
+_DAMAGED = (zipfile.BadZipFile, EOFError, ValueError, OSError, KeyError, struct.error, zlib.error,
+            NotImplementedError, RuntimeError, OverflowError)
 
 
 def _array_headers(stream, where: str) -> dict:
