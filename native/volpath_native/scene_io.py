@@ -151,13 +151,7 @@ def _array_headers(stream, where: str) -> dict:
                 continue
             name = info.filename[:-4]
             with archive.open(info) as member:
-                version = np.lib.format.read_magic(member)
-                if version == (1, 0):
-                    shape, _, dtype = np.lib.format.read_array_header_1_0(member)
-                elif version in ((2, 0), (3, 0)):
-                    shape, _, dtype = np.lib.format.read_array_header_2_0(member)
-                else:
-                    raise sc.SceneError(f"{where}: array '{name}': unsupported .npy version {version}")
+                shape, dtype = _npy_header(member, where, name)
                 offset = member.tell()
             if dtype.hasobject:
                 raise sc.SceneError(f"{where}: array '{name}' holds Python objects (refused: files stay pickle-free)")
@@ -169,6 +163,25 @@ def _array_headers(stream, where: str) -> dict:
                 raise sc.SceneError(f"{where}: scene.json is {nbytes} bytes, more than {MAX_HEADER_BYTES}")
             members[name] = (shape, dtype, nbytes)
     return members
+
+
+def _npy_header(member, where: str, name: str):
+    """(shape, dtype) of one .npy member, read without its data. numpy parses the header text with
+    Python's tokenizer and ast, whose errors on damaged bytes (TokenError, SyntaxError, ...) are not
+    a documented set: any of them is a damaged file."""
+    try:
+        version = np.lib.format.read_magic(member)
+        if version == (1, 0):
+            shape, _, dtype = np.lib.format.read_array_header_1_0(member)
+        elif version in ((2, 0), (3, 0)):
+            shape, _, dtype = np.lib.format.read_array_header_2_0(member)
+        else:
+            raise sc.SceneError(f"{where}: array '{name}': unsupported .npy version {version}")
+    except sc.SceneError:
+        raise
+    except Exception as error:  # noqa: BLE001 - see the docstring
+        raise sc.SceneError(f"{where}: array '{name}': damaged .npy header ({type(error).__name__})") from None
+    return shape, dtype
 
 
 def _build(header: dict, data, where: str) -> sc.Scene:

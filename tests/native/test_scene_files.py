@@ -126,9 +126,15 @@ def test_truncated_and_garbage_files(tmp_path, valid):
         with pytest.raises(SceneError, match=f"^{path}: "):
             load_scene(path)
     # found by the fuzz suite: a flipped byte naming an unknown compression method
-    flipped = bytearray(data)
-    flipped[int(0.8984375 * (len(data) - 1))] ^= 1
-    for k, damaged in enumerate([bytes(flipped)] + [_with_method(data, m) for m in (99, 1)]):
+    flips = []
+    for position in (0.8984375, 0.5546875):  # also one in a .npy header's text (TokenError)
+        flipped = bytearray(data)
+        flipped[int(position * (len(data) - 1))] ^= 1
+        flips.append(bytes(flipped))
+    header_text = bytearray(data)
+    at = header_text.find(b"{'descr'")
+    header_text[at + 3] = ord("(")  # an unbalanced bracket in the first array's header
+    for k, damaged in enumerate(flips + [bytes(header_text)] + [_with_method(data, m) for m in (99, 1)]):
         path = tmp_path / f"damaged{k}.vpscene"
         path.write_bytes(damaged)
         try:
