@@ -194,13 +194,14 @@ def test_world_background_and_volume(scene):
     np.testing.assert_allclose(scene_.media[0].sigma_a, 0.0)
 
 
-def test_open_mesh_bounding_a_medium_is_an_error(scene):
+def test_open_mesh_bounding_a_medium_is_named_and_rendered_without_it(scene):
     fog = node_material("Fog", volume=shader("ShaderNodeVolumePrincipled"))
     from addon_scenes import CUBE_FACES, CUBE_VERTICES
 
     add_mesh(scene, "OpenBox", vertices=CUBE_VERTICES, faces=CUBE_FACES[:-1], material=fog)
-    with pytest.raises(vp.SceneError, match="OpenBox"):
-        export(scene)
+    native, warnings = export(scene)
+    assert any("object 'OpenBox'" in w and "not closed" in w for w in warnings), warnings
+    assert native.materials[native.meshes[0].material_ids[0]].medium == -1
 
 
 def test_transparent_surface_around_a_volume_is_a_null_boundary(scene):
