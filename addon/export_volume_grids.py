@@ -214,8 +214,8 @@ def export_volume_objects(depsgraph, warnings: list, temp_dir: Optional[str] = N
         obj = instance.object
         if obj.type != "VOLUME" or (not instance.is_instance and not instance.show_self):
             continue
-        if not np.all(np.isfinite(np.array(instance.matrix_world, dtype=np.float64))):
-            continue  # named by the scene exporter (export/validate.py finite_transform)
+        if not np.all(np.abs(np.array(instance.matrix_world, dtype=np.float64)) < np.finfo(np.float32).max):
+            continue  # non-finite or FLT_MAX: named by the scene exporter (export/validate.py finite_transform)
         key = obj.data.as_pointer()
         if key not in read:
             names = set(STANDARD_GRIDS) | material_grid_names(obj.active_material)

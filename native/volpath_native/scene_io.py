@@ -115,7 +115,7 @@ def load_scene(path) -> sc.Scene:
             members = _array_headers(stream, where)
         except sc.SceneError:
             raise
-        except (zipfile.BadZipFile, EOFError, ValueError, OSError, KeyError, struct.error) as error:
+        except _DAMAGED as error:
             raise sc.SceneError(f"{where}: not a readable VolPath scene (truncated or not a .vpscene "
                                 f"archive: {error})") from None
     if "scene.json" not in members:
@@ -134,8 +134,14 @@ def load_scene(path) -> sc.Scene:
             return _build(header, data, where)
     except sc.SceneError:
         raise
-    except (zipfile.BadZipFile, EOFError, ValueError, OSError, KeyError, zlib.error) as error:
+    except _DAMAGED as error:
         raise sc.SceneError(f"{where}: damaged archive ({type(error).__name__}: {error})") from None
+
+
+# What zipfile, zlib and numpy raise on damaged bytes (a flipped byte may name an unknown
+# compression method -- NotImplementedError -- or an encrypted member -- RuntimeError).
+_DAMAGED = (zipfile.BadZipFile, EOFError, ValueError, OSError, KeyError, struct.error, zlib.error,
+            NotImplementedError, RuntimeError, OverflowError)
 
 
 def _array_headers(stream, where: str) -> dict:
@@ -150,13 +156,7 @@ def _array_headers(stream, where: str) -> dict:
                 continue
             name = info.filename[:-4]
             with archive.open(info) as member:
-                version = np.lib.format.read_magic(member)
-                if version == (1, 0):
-                    shape, _, dtype = np.lib.format.read_array_header_1_0(member)
-                elif version in ((2, 0), (3, 0)):
-                    shape, _, dtype = np.lib.format.read_array_header_2_0(member)
-                else:
-                    raise sc.SceneError(f"{where}: array '{name}': unsupported .npy version {version}")
+                shape, dtype = _npy_header(member, where, name)
                 offset = member.tell()
             if dtype.hasobject:
                 raise sc.SceneError(f"{where}: array '{name}' holds Python objects (refused: files stay pickle-free)")
@@ -168,6 +168,25 @@ def _array_headers(stream, where: str) -> dict:
                 raise sc.SceneError(f"{where}: scene.json is {nbytes} bytes, more than {MAX_HEADER_BYTES}")
             members[name] = (shape, dtype, nbytes)
     return members
+
+
+def _npy_header(member, where: str, name: str):
+    """(shape, dtype) of one .npy member, read without its data. numpy parses the header text with
+    Python's tokenizer and ast, whose errors on damaged bytes (TokenError, SyntaxError, ...) are not
+    a documented set: any of them is a damaged file."""
+    try:
+        version = np.lib.format.read_magic(member)
+        if version == (1, 0):
+            shape, _, dtype = np.lib.format.read_array_header_1_0(member)
+        elif version in ((2, 0), (3, 0)):
+            shape, _, dtype = np.lib.format.read_array_header_2_0(member)
+        else:
+            raise sc.SceneError(f"{where}: array '{name}': unsupported .npy version {version}")
+    except sc.SceneError:
+        raise
+    except Exception as error:  # noqa: BLE001 - see the docstring
+        raise sc.SceneError(f"{where}: array '{name}': damaged .npy header ({type(error).__name__})") from None
+    return shape, dtype
 
 
 def _build(header: dict, data, where: str) -> sc.Scene:

@@ -6,7 +6,6 @@ import bpy
 import numpy as np
 import pytest
 
-import volpath_native as vp
 from addon_scenes import add_mesh, export, node_material, shader
 
 

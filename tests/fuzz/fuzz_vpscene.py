@@ -6,6 +6,7 @@ the file holds, truncation, flipped bytes). `check` loads each and, if it loads,
 """
 from __future__ import annotations
 
+import copy
 import io
 import json
 import math
@@ -113,16 +114,17 @@ def _mutate(scene_bytes: bytes, mutations) -> bytes:
             paths = [p for p in _nodes(header) if p]
             path = paths[m[1] % len(paths)]
             parent = _parent(header, path)
+            value = copy.deepcopy(m[2] if len(m) > 2 else None)  # never share (a list could hold itself)
             if kind == "json_set":
-                parent[path[-1]] = m[2]
+                parent[path[-1]] = value
             elif kind == "json_delete":
                 del parent[path[-1]]
             else:
                 target = _parent(header, path + ("x",))
                 if isinstance(target, dict):
-                    target[f"extra{m[1] % 7}"] = m[2]
+                    target[f"extra{m[1] % 7}"] = value
                 elif isinstance(target, list):
-                    target.append(m[2])
+                    target.append(value)
         elif kind.startswith("array") and arrays:
             name = sorted(arrays)[m[1] % len(arrays)]
             if kind == "array_delete":

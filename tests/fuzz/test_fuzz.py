@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings
 
 import fuzz_vpscene
 
-EXAMPLES = int(os.environ.get("VOLPATH_FUZZ_EXAMPLES", "60"))
+EXAMPLES = int(os.environ.get("VOLPATH_FUZZ_EXAMPLES", "100"))
 FUZZ_SETTINGS = dict(deadline=None, derandomize=True, database=None,
                      suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture,
                                             HealthCheck.data_too_large])

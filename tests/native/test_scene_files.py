@@ -125,10 +125,37 @@ def test_truncated_and_garbage_files(tmp_path, valid):
         path.write_bytes(data[:cut])
         with pytest.raises(SceneError, match=f"^{path}: "):
             load_scene(path)
+    # found by the fuzz suite: a flipped byte naming an unknown compression method
+    flips = []
+    for position in (0.8984375, 0.5546875):  # also one in a .npy header's text (TokenError)
+        flipped = bytearray(data)
+        flipped[int(position * (len(data) - 1))] ^= 1
+        flips.append(bytes(flipped))
+    header_text = bytearray(data)
+    at = header_text.find(b"{'descr'")
+    header_text[at + 3] = ord("(")  # an unbalanced bracket in the first array's header
+    for k, damaged in enumerate(flips + [bytes(header_text)] + [_with_method(data, m) for m in (99, 1)]):
+        path = tmp_path / f"damaged{k}.vpscene"
+        path.write_bytes(damaged)
+        try:
+            load_scene(path)
+        except SceneError as error:
+            assert str(error).startswith(f"{path}: ")
     path = tmp_path / "text.vpscene"
     path.write_text("not a scene")
     with pytest.raises(SceneError, match="not a readable VolPath scene"):
         load_scene(path)
+
+
+def _with_method(archive: bytes, method: int) -> bytes:
+    """The archive with every member's compression method set to `method` (99: unknown, 1: shrunk)."""
+    data = bytearray(archive)
+    for signature, offset in ((b"PK\x03\x04", 8), (b"PK\x01\x02", 10)):
+        start = 0
+        while (start := data.find(signature, start)) >= 0:
+            data[start + offset:start + offset + 2] = method.to_bytes(2, "little")
+            start += 4
+    return bytes(data)
 
 
 def test_an_array_claiming_more_than_the_file_holds_is_refused_before_reading(tmp_path, valid):
