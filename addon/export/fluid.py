@@ -1,7 +1,6 @@
 """Blender fluid (Mantaflow) gas domains -> ExportedVolume grids, read and placed as Cycles' Blender sync does.
 
-What Cycles 5.0 does with a domain (blender/blender intern/cycles/blender/, see
-/work/shared/notes/cycles-volumes-from-blender.md section 1):
+What Cycles 5.0 does with a domain (blender/blender intern/cycles/blender/):
 - `object_fluid_gas_domain_find` (util.h) makes `determine_geom_type` (geometry.cpp) sync a gas
   domain as a Volume: its mesh (the domain box) is never shaded.
 - `sync_smoke_volume` (volume.cpp) loads grids only when cache_frame_start <= frame <=
@@ -26,7 +25,8 @@ Where the grids come from, in order (FLUID_SOURCES):
    above are applied, which gives exactly the runtime's arrays (tests/addon_volume/test_fluid_domains.py).
    First, because the runtime cannot always be trusted: the bpy 5.0.1 wheel's Mantaflow cannot load
    a cache at all (its Python classes lack their C++ base classes: all zeros), and Blender's runtime
-   keeps the previous frame's grids when a frame's file is missing or corrupt (3.4 and 5.0).
+   keeps the previous frame's grids when a frame's file is missing or corrupt (seen in 3.4 and
+   in the repaired 5.0.1 wheel).
    A missing, corrupt or mismatched cache file is bad input: nothing renders.
 2. the fluid runtime, the evaluated domain's RNA arrays as Cycles reads them, when this Blender
    cannot read the cache (Debian's Blender 3.4 has no openvdb module; Uni/Raw caches), provided
