@@ -17,9 +17,11 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-for path in (str(ROOT), str(ROOT / "native"), str(ROOT / "tests")):
+for path in (str(ROOT), str(ROOT / "native"), str(ROOT / "tests"), str(Path(__file__).resolve().parent)):
     if path not in sys.path:
         sys.path.insert(0, path)
+
+from equal_time import equal_time_row  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -32,15 +34,13 @@ def main(argv=None) -> int:
     if args.quick:
         args.seconds, args.reference_spp, args.resolution = 4.0, 128, 48
 
-    import numpy as np
-
     import fluid_runtime
 
     fluid_runtime.restore_mantaflow_bases()
     import addon
 
     addon.register()
-    from addon.compare import cycles_engine, metrics, volpath_engine
+    from addon.compare import volpath_engine
 
     resolution = (args.resolution, args.resolution)
     with tempfile.TemporaryDirectory(prefix="volpath_bench_fire_") as tmp:
@@ -55,31 +55,8 @@ def main(argv=None) -> int:
         print(f"fire: grid {tuple(int(n) - 3 for n in fire.shape)} voxels (cropped), majorant grid "
               f"{tuple(fire.majorant_shape)}; {args.resolution}x{args.resolution} px")
 
-        bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
-        with cycles_engine.matched_settings(scene, bounces, resolution):
-            reference = cycles_engine.render_once(scene, samples=args.reference_spp, seed=1000, scratch=tmp)
-            per_sample = reference.render_seconds / args.reference_spp
-            cycles_run = cycles_engine.render_once(scene, samples=max(1, int(args.seconds / per_sample)), seed=1,
-                                                   scratch=tmp)
-        print(f"reference: Cycles {args.reference_spp} spp, render {reference.render_seconds:.1f} s "
-              f"(+ {reference.seconds - reference.render_seconds:.1f} s scene sync, excluded)")
-        volpath_run = volpath_engine.render_runs(native_scene, runs=1, samples=1, base_seed=1,
-                                                 time_limit=args.seconds)[0]
-        pixels = args.resolution ** 2
-        for name, run in (("VolPath", volpath_run), ("Cycles", cycles_run)):
-            rate = run.samples / max(run.render_seconds, 1e-9)
-            print(f"{name:8s} {run.samples} spp in {run.render_seconds:.1f} s = {rate * pixels / 1e3:.1f} k samples/s")
-        # Remove the reference's own noise share (as bench_cloud.py does).
-        raw_v = metrics.relmse(volpath_run.image, reference.image)
-        raw_c = metrics.relmse(cycles_run.image, reference.image)
-        share = raw_c * cycles_run.samples / (cycles_run.samples + args.reference_spp)
-        err_v, err_c = raw_v - share, raw_c - share
-        print(f"equal render time, relMSE vs reference: VolPath {err_v:.4g}, Cycles {err_c:.4g} "
-              f"(raw {raw_v:.4g} / {raw_c:.4g}); relMSE x seconds: VolPath needs "
-              f"{err_v * volpath_run.render_seconds / (err_c * cycles_run.render_seconds):.3g}x Cycles' time")
-        means_v = metrics.rgb(volpath_run.image).mean(axis=(0, 1))
-        means_r = metrics.rgb(reference.image).mean(axis=(0, 1))
-        print("image mean ratio VolPath/reference R/G/B: " + " ".join(f"{a / b:.4f}" for a, b in zip(means_v, means_r)))
+        row = equal_time_row("fire", scene, native_scene, args.seconds, args.reference_spp, tmp, resolution)
+        print(*row.lines(args.resolution ** 2), sep="\n")
         fluid_runtime.free_blend_data()
         os.chdir(ROOT)
     return 0

@@ -45,11 +45,13 @@ class EqualTimeRow:
         ]
 
 
-def equal_time_row(name: str, scene, native_scene, seconds: float, reference_spp: int, scratch) -> EqualTimeRow:
+def equal_time_row(name: str, scene, native_scene, seconds: float, reference_spp: int, scratch,
+                   resolution=None) -> EqualTimeRow:
+    """resolution: Cycles' render size override (native_scene must have been exported at it)."""
     from addon.compare import cycles_engine, metrics, volpath_engine
 
     bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
-    with cycles_engine.matched_settings(scene, bounces):
+    with cycles_engine.matched_settings(scene, bounces, resolution):
         reference = cycles_engine.render_once(scene, samples=reference_spp, seed=1000, scratch=scratch)
         cycles_per_sample = reference.render_seconds / reference_spp
         cycles_run = cycles_engine.render_once(scene, samples=max(1, int(seconds / cycles_per_sample)), seed=1,
