@@ -45,9 +45,9 @@ class SurfaceTerms:
 
 
 def _reweighted(node: SurfaceNode, weight: float) -> SurfaceNode:
-    record = node.to_record()
-    record["weight"] = weight
-    return SurfaceNode.from_record(record)
+    copy = node.copy()
+    copy.weight = weight
+    return copy
 
 
 def _distribution(reader, node, allowed=("multi_ggx", "ggx", "beckmann")) -> str:

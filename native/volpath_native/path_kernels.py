@@ -591,12 +591,18 @@ def _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q,
 
 
 @inline_stage_kernel
-def _advance_through(S, F, I, C, p, prim, front, t, d):
-    """Move path p just past the surface it hit at distance t, keeping its direction (null
-    boundaries and transparent surfaces); the volume stack follows the crossing."""
+def _cross_volume(S, F, C, p, prim, front):
+    """Path p crosses triangle prim's volume boundary: its stack and medium coefficients follow."""
     cross_boundary(S, C, p, prim, front)
     if S.any_medium:
         stack_coefficients(S, C, p, F)
+
+
+@inline_stage_kernel
+def _advance_through(S, F, C, p, prim, front, t, d):
+    """Move path p just past the surface it hit at distance t, keeping its direction (null
+    boundaries and transparent surfaces); the volume stack follows the crossing."""
+    _cross_volume(S, F, C, p, prim, front)
     step = t + S.epsilon
     for c in range(3):
         F[p, O + c] += d[c] * step
@@ -632,7 +638,7 @@ def _surface(S, T, SN, BT, CB, F, I, K, C, p, iteration, prim, t, hu, hv, L, Q, 
     front = _dot3(d, ng) < 0.0
     if S.tri_null[prim]:
         # null boundary: cross it, update the volume stack, keep the direction
-        _advance_through(S, F, I, C, p, prim, front, t, d)
+        _advance_through(S, F, C, p, prim, front, t, d)
         I[p, BOUNDS] += 1
         return I[p, BOUNDS] <= MAX_VOLUME_BOUNDS, n_shadow
     stats[0] += 1
@@ -681,16 +687,14 @@ def _surface(S, T, SN, BT, CB, F, I, K, C, p, iteration, prim, t, hu, hv, L, Q, 
     _set3(F, p, BETA, _mul3(beta, weight))
     if label & LABEL_TRANSPARENT:
         # straight on, counting only against the transparent limit (path_state_next)
-        _advance_through(S, F, I, C, p, prim, front, t, d)
+        _advance_through(S, F, C, p, prim, front, t, d)
         I[p, TRANSPARENT] += 1
         if I[p, TRANSPARENT] > S.transparent_bounces:
             I[p, TAT] = 1
         return True, n_shadow
     if label & LABEL_TRANSMIT:
-        if S.tri_volume[prim] >= 0:
-            cross_boundary(S, C, p, prim, front)
-            if S.any_medium:
-                stack_coefficients(S, C, p, F)
+        if S.tri_volume[prim] >= 0:  # glass holding a liquid: enter / leave it
+            _cross_volume(S, F, C, p, prim, front)
         # translucent (TRANSMIT|DIFFUSE) too counts as a transmission bounce in path_state_next
         _scatter_to(S, F, I, p, below, wo, pdf, TRANSMISSION, S.transmission_bounces)
     elif label & LABEL_DIFFUSE:
