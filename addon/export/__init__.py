@@ -120,6 +120,7 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=
             name = f"{parent}/{obj.name}#{len(meshes)}"
         else:
             name = obj.name
+        slot_materials = table.procedural.bind(slot_materials, obj, name, matrix, local.vertices)
         mesh = validate.finite_mesh(geometry.to_world(name, local, matrix, slot_materials), obj.name, reporter)
         if mesh is not None:
             meshes.append(mesh)

@@ -28,6 +28,8 @@ from volpath_native.bsdfs.nodes import SurfaceNode
 
 from .. import compat
 from . import validate
+from .procedural_media import ProceduralMedia
+from .shader_compiler import ShaderCompiler
 from .surfaces import surface_terms
 
 # Cycles clamps Henyey-Greenstein's g to +-(1 - 1e-3) (kernel/closure/volume_henyey_greenstein.h).
@@ -235,6 +237,8 @@ class MaterialTable:
         self.materials: list[vp.Material] = []
         self.media: list[vp.Medium] = []
         self._index: dict = {}
+        # materials whose volume varies over space: a medium per object (procedural_media.py)
+        self.procedural = ProceduralMedia(self)
 
     def index_of(self, material) -> int:
         """Index into `materials` for a Blender material (None: Cycles' default grey diffuse)."""
@@ -243,6 +247,9 @@ class MaterialTable:
             self._index[key] = len(self.materials)
             self.materials.append(self._convert(material))
         return self._index[key]
+
+    def _volume_program(self, name: str, socket):
+        return _volume_program_of(f"material '{name}'", socket, self.reporter)
 
     def _convert(self, material) -> vp.Material:
         if material is None:
@@ -258,12 +265,17 @@ class MaterialTable:
             return vp.Material(name=name, base_color=np.zeros(3))
         surface_socket, volume_socket = output.inputs["Surface"], output.inputs["Volume"]
         has_surface = _source_socket(surface_socket) is not None
-        volume = _volume_from(reader, volume_socket)
         has_volume = _source_socket(volume_socket) is not None
+        program = self._volume_program(name, volume_socket) if has_volume else None
         medium = -1
-        if has_volume and not volume.is_empty:
-            self.media.append(_medium_from(name, volume))
-            medium = len(self.media) - 1
+        if program is not None and program.varying:
+            # evaluated per object: ProceduralMedia.bind gives each object its own medium
+            self.procedural.programs[len(self.materials)] = program
+        elif has_volume:
+            volume = _volume_from(reader, volume_socket)
+            if not volume.is_empty:
+                self.media.append(_medium_from(name, volume))
+                medium = len(self.media) - 1
         if has_volume and not has_surface:
             # Volume only: an invisible boundary (scene/shader.cpp sets SD_HAS_ONLY_VOLUME, and
             # kernel/integrator/surface_shader.h makes such surfaces fully transparent).
@@ -278,6 +290,21 @@ class MaterialTable:
         surface = surface_terms(reader, _shader_node, surface_socket)
         return vp.Material(name=name, surface="diffuse", base_color=np.zeros(3), emission=surface.emission,
                            medium=medium, surface_nodes=surface.nodes)
+
+
+def _volume_program_of(owner: str, socket, reporter):
+    """The volume closures feeding `socket` compiled to a shader program, or None when the tree
+    cannot be compiled (the constant reading of _volume_from then applies, with its warnings)."""
+    quiet = Reporter()  # the constant path repeats what matters; keep the compiler's own notes
+    try:
+        program = ShaderCompiler(owner, quiet).compile_volume(socket)
+    except (KeyError, ValueError, TypeError, AttributeError) as error:
+        reporter.warn(f"{owner}: its volume nodes could not be compiled ({error}); read as constants")
+        return None
+    if program.varying:
+        for message in quiet.messages:
+            reporter.warn(message)
+    return program
 
 
 def export_world(world, table: MaterialTable) -> vp.World:

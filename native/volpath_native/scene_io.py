@@ -71,6 +71,11 @@ def _load_medium(index: int, entry: dict, data) -> object:
         prefix = f"medium{index}."
         grids = {k[len(prefix):]: data[k] for k in data.files if k.startswith(prefix)}
         return GridMedium.from_record(entry, grids)
+    if entry.get("type") == "program":
+        from .program_medium import ProgramMedium
+        prefix = f"medium{index}."
+        arrays = {k[len(prefix):]: data[k] for k in data.files if k.startswith(prefix)}
+        return ProgramMedium.from_record(entry, arrays)
     return sc.Medium(**entry)
 
 

@@ -63,6 +63,13 @@ _GRID_FIELDS = {"type": ("str", True), "name": ("str", True), "sigma_s": ("rgb",
                 "g": ("float", False), "emission": ("rgb", False), "index_to_world": ("matrix4", True),
                 "majorant_resolution": ("int", False)}
 _GRID_ARRAYS = {"density": 3, "scatter_grid": 4, "absorb_grid": 4, "emission_grid": 4}  # name -> ndim
+# A shader-program medium (program_medium.ProgramMedium.to_record); its program is checked by
+# ShaderProgram.validate when loaded (opcodes and register operands).
+_PROGRAM_FIELDS = {"type": ("str", True), "name": ("str", True), "g": ("float", False),
+                   "object_to_world": ("matrix4", True), "bounds": ("any", True), "object_to_generated": ("any", True),
+                   "majorant_resolution": ("int", False), "program_name": ("str", False),
+                   "program_varying": ("bool", False), "program_attributes": ("any", False)}
+_PROGRAM_ARRAYS = {"program_code": 1, "program_init": 1, "program_tables": 1, "attributes": 4}
 _MESH_FIELDS = {"name": ("str", True), "smooth": ("bool", False)}
 _SECTIONS = ("camera", "film", "world", "settings", "materials", "media", "lights", "meshes")
 # Largest JSON document read (bytes): a scene of 10^5 objects is far below it.
@@ -245,6 +252,11 @@ def check_header(header, arrays: dict, where: str) -> None:
         if isinstance(m, dict) and m.get("type") == "grid":
             _check_object(m, _GRID_FIELDS, where, path)
             _check_grid_arrays(i, m, arrays, where)
+        elif isinstance(m, dict) and m.get("type") == "program":
+            _check_object(m, _PROGRAM_FIELDS, where, path)
+            for name, ndim in _PROGRAM_ARRAYS.items():
+                _require_array(arrays, f"medium{i}.{name}", where, f"{path}.{name}", ndim)
+            _check_box(m, where, path)
         else:
             _check_object(m, dataclass_fields(sc.Medium), where, path, "Medium")
     for i, mat in enumerate(materials):
@@ -303,6 +315,21 @@ def _check_mesh_arrays(i: int, mesh: dict, arrays: dict, where: str):
             _fail(where, f"{path}.corner_normals", f"{normals[0]} rows of corner normals for {tris[0]} triangles")
 
 
+def _check_box(medium: dict, where: str, path: str):
+    try:
+        bounds = np.asarray(medium["bounds"], dtype=np.float64)
+        generated = np.asarray(medium["object_to_generated"], dtype=np.float64)
+    except (TypeError, ValueError):
+        _fail(where, path, "bounds / object_to_generated are not numbers")
+    if bounds.shape != (2, 3) or not np.all(np.isfinite(bounds)) or np.any(bounds[1] < bounds[0]):
+        _fail(where, f"{path}.bounds", "expected [[xmin, ymin, zmin], [xmax, ymax, zmax]]")
+    if generated.shape != (3, 4) or not np.all(np.isfinite(generated)):
+        _fail(where, f"{path}.object_to_generated", "expected a finite 3x4 matrix")
+    resolution = medium.get("majorant_resolution", 24)
+    if not 1 <= resolution <= 256:
+        _fail(where, f"{path}.majorant_resolution", f"{resolution} is outside [1, 256]")
+
+
 def _check_grid_arrays(i: int, medium: dict, arrays: dict, where: str):
     path = f"media[{i}]"
     density = _require_array(arrays, f"medium{i}.density", where, f"{path}.density", 3)
@@ -337,8 +364,8 @@ def check_arrays(header: dict, data, where: str) -> None:
             _fail(where, f"{path}.material_ids", f"material index {int(ids.min() if ids.min() < 0 else ids.max())} "
                                                  f"out of range ({n_materials} materials)")
     for i, medium in enumerate(header["media"]):
-        if isinstance(medium, dict) and medium.get("type") == "grid":
-            for name in _GRID_ARRAYS:
+        if isinstance(medium, dict) and medium.get("type") in ("grid", "program"):
+            for name in (_GRID_ARRAYS if medium["type"] == "grid" else ("program_init", "program_tables", "attributes")):
                 key = f"medium{i}.{name}"
                 if key in data.files and not np.all(np.isfinite(data[key])):
                     _fail(where, f"media[{i}].{name}", "non-finite voxel values")

@@ -1,0 +1,102 @@
+"""Volume materials whose nodes vary over space -> one ProgramMedium per object that uses them.
+
+A material's program is compiled once (shading.MaterialTable); the medium also needs the object it
+is evaluated on -- its transform (Texture Coordinate > Object), its texture space (Generated) and
+its bounds (where Cycles evaluates the volume) -- so each (material, object instance) pair gets its
+own medium and a copy of the material pointing at it.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+import volpath_native as vp
+from volpath_native.program_medium import ProgramMedium
+from volpath_native.shading import program as P
+from volpath_native.shading.interpreter import run_program_many
+
+
+def generated_transform(obj, vertices: np.ndarray) -> np.ndarray:
+    """3x4 object -> Generated map of a mesh: (P - L) / 2S + 0.5 with the evaluated data's texture
+    space L, S (auto texture space = the bounds; Cycles' create_mesh stores this transform,
+    intern/cycles/blender/mesh.cpp, and volume_normalized_position applies it)."""
+    data = getattr(obj, "data", None)
+    location = getattr(data, "texspace_location", None)
+    size = getattr(data, "texspace_size", None)
+    if location is None or size is None:
+        lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+        location, size = (lo + hi) / 2.0, (hi - lo) / 2.0
+    location = np.asarray(location, dtype=np.float64)
+    size = np.asarray(size, dtype=np.float64)
+    size = np.where(np.abs(size) > 1e-12, size, 1.0)  # Blender keeps a flat texture space at 1
+    out = np.zeros((3, 4))
+    out[:, :3] = np.diag(1.0 / (2.0 * size))
+    out[:, 3] = 0.5 - location / (2.0 * size)
+    return out
+
+
+def phase_of(program, frame: np.ndarray, point: np.ndarray, label: str, reporter) -> float:
+    """The anisotropy of the program's scattering closures, read at one point (the medium's phase
+    function is constant: a varying or mixed anisotropy is warned about)."""
+    regs = np.zeros(program.n_registers)
+    out = np.zeros((1, P.MAX_LOBES * P.LOBE_STRIDE))
+    run_program_many(program.code, program.init, program.tables, regs, np.ascontiguousarray(frame),
+                     np.zeros((1, 1, 1, 1), np.float32), np.zeros((3, 4)), point.reshape(1, 3), out, P.R_LOBES,
+                     out.shape[1])
+    lobes = out[0].reshape(P.MAX_LOBES, P.LOBE_STRIDE)
+    weights, gs = lobes[:, :3].mean(axis=1), lobes[:, 3]
+    used = weights > 0
+    if not used.any():
+        return 0.0
+    if len(set(np.round(gs[used], 6))) > 1:
+        reporter.warn(f"{label}: scattering shaders with different anisotropy in a varying volume are rendered "
+                      f"with their mean anisotropy {float(np.average(gs[used], weights=weights[used])):.3g}")
+    return float(np.average(gs[used], weights=weights[used]))
+
+
+class ProceduralMedia:
+    """Binds the varying volume programs of a MaterialTable to the objects using them."""
+
+    def __init__(self, table):
+        self.table = table
+        self.programs: dict = {}  # material index -> ShaderProgram
+        self._bound: dict = {}
+
+    def bind(self, slot_materials: np.ndarray, obj, instance_name: str, matrix: np.ndarray,
+             vertices: np.ndarray) -> np.ndarray:
+        """slot_materials with each varying-volume material replaced by its copy for this object."""
+        if not self.programs or not any(int(i) in self.programs for i in slot_materials):
+            return slot_materials
+        out = slot_materials.copy()
+        for k, index in enumerate(slot_materials):
+            program = self.programs.get(int(index))
+            if program is None:
+                continue
+            key = (int(index), instance_name, matrix.tobytes())
+            if key not in self._bound:
+                self._bound[key] = self._new_medium(int(index), program, obj, instance_name, matrix, vertices)
+            out[k] = self._bound[key]
+        return out
+
+    def _new_medium(self, index, program, obj, instance_name, matrix, vertices) -> int:
+        table = self.table
+        material = table.materials[index]
+        label = f"{material.name} on '{instance_name}'"
+        generated = generated_transform(obj, vertices)
+        lo, hi = vertices.min(axis=0).astype(np.float64), vertices.max(axis=0).astype(np.float64)
+        world_to_object = np.linalg.inv(matrix)[:3]
+        centre = matrix[:3, :3] @ ((lo + hi) / 2.0) + matrix[:3, 3]
+        g = phase_of(program, np.stack([world_to_object, generated]), centre, f"material '{material.name}'",
+                     table.reporter)
+        try:
+            medium = ProgramMedium(label, program, matrix, (lo, hi), generated, g=g)
+        except vp.SceneError as error:
+            table.reporter.warn(f"material '{material.name}' on '{instance_name}': {error}; no medium")
+            return index
+        for message in medium.warnings():
+            table.reporter.warn(message)
+        table.media.append(medium)
+        copy = vp.Material(name=label, surface=material.surface, base_color=material.base_color,
+                           emission=material.emission, two_sided_emission=material.two_sided_emission,
+                           medium=len(table.media) - 1, surface_nodes=[n.copy() for n in material.surface_nodes])
+        table.materials.append(copy)
+        return len(table.materials) - 1
