@@ -9,11 +9,12 @@ RELATIVE_TOLERANCE = 2e-5
 
 
 def mismatches(ours: np.ndarray, cycles: np.ndarray, tolerance: float = RELATIVE_TOLERANCE):
-    """(number of points whose value differs by more than tolerance * max(1, max |cycles|), the
-    largest difference). ours/cycles: (n,) or (n, k); a point counts once if any channel differs."""
+    """(number of points where some channel differs by more than tolerance * max(1, max |cycles|
+    of that channel), the largest difference). ours/cycles: (n,) or (n, channels)."""
     ours = np.asarray(ours, np.float64).reshape(len(ours), -1)
     cycles = np.asarray(cycles, np.float64).reshape(len(cycles), -1)
-    scale = max(1.0, float(np.nanmax(np.abs(cycles))) if np.isfinite(cycles).any() else 1.0)
+    finite = np.where(np.isfinite(cycles), np.abs(cycles), 0.0)
+    scale = np.maximum(1.0, finite.max(axis=0)) if len(cycles) else np.ones(cycles.shape[1])
     diff = np.abs(ours - cycles)
     diff[np.isnan(ours) & np.isnan(cycles)] = 0.0
     diff[np.isnan(diff)] = np.inf
