@@ -40,10 +40,15 @@ def point_inputs(variant: Variant, i: np.ndarray, j: np.ndarray):
     i, j = i.astype(f), j.astype(f)
     sx, sy, sz, sw = (f(v) for v in variant.scale)
     ox, oy, oz, ow = (f(v) for v in variant.offset)
-    x = (i * sx).astype(f) + ox
-    y = (j * sy).astype(f) + oy
-    z = ((i + j).astype(f) * sz).astype(f) + oz
-    w = ((i - j).astype(f) * sw).astype(f) + ow
+
+    def add(a, b):
+        # Cycles folds "x + 0" to x (MathNode::constant_fold), keeping -0.0 that an addition loses
+        return a if b == 0 else (a + b).astype(f)
+
+    x = add((i * sx).astype(f), ox)
+    y = add((j * sy).astype(f), oy)
+    z = add(((i + j).astype(f) * sz).astype(f), oz)
+    w = add(((i - j).astype(f) * sw).astype(f), ow)
     return x.astype(f), y.astype(f), z.astype(f), w.astype(f)
 
 
