@@ -39,6 +39,7 @@ import numpy as np
 
 from .jit import inline_stage_kernel, stage_kernel
 from .sampling import uniform1
+from .shading.interpreter import closure_coefficients, run_program
 
 GridTables = namedtuple("GridTables", [
     "density",            # (nx,ny,nz) float32, padded (zero border), negative values clamped
@@ -62,6 +63,15 @@ GridTables = namedtuple("GridTables", [
     "flags",              # (3,) int64 counters written by the kernels: see FLAG_*
     "stop",               # (1,) int64 non-zero: abandon tracking (the render was cancelled)
     "violation",          # (2,5) float64 last majorant / minorant violation: value, bound, world x, y, z
+    # Shader-program media (program_medium.ProgramMedium): the coefficients at a point are the
+    # program's volume closures instead of the grids above (shading/interpreter.py).
+    "has_program",        # bool
+    "program_code",       # (n,) int32 instructions
+    "program_init",       # (r,) float64 initial registers
+    "program_tables",     # (t,) float64 lookup tables
+    "registers",          # (r,) float64 scratch, private to one batch (thread)
+    "frame",              # (2,3,4) float64 world -> object, object -> generated texture space
+    "attributes",         # (nx,ny,nz,c) float32 grid attributes in the padded index space
 ])
 
 #: Uniform dimensions reserved per stream.
@@ -145,6 +155,8 @@ def grid_density(G, x, y, z):
 def grid_coefficients(G, x, y, z):
     """(sigma_s rgb, sigma_t rgb, emission rgb) at a world point: 9 floats. Colour factors and
     emission are interpolated per voxel (the expectation of Cycles' stochastic lookup)."""
+    if G.has_program:
+        return program_coefficients(G, x, y, z)
     px, py, pz = _to_index(G, x, y, z)
     inside, i, j, k, fx, fy, fz = _corner(G, px, py, pz)
     if not inside:
@@ -166,6 +178,18 @@ def grid_coefficients(G, x, y, z):
         gr, gg, gb = _trilinear3(G.emission_grid, i, j, k, fx, fy, fz)
         er, eg, eb = er + gr, eg + gg, eb + gb
     return sr, sg, sb, tr, tg, tb, er, eg, eb
+
+
+@stage_kernel
+def program_coefficients(G, x, y, z):
+    """grid_coefficients of a shader-program medium: its program evaluated at the point, inside the
+    medium's box (0 outside, as Cycles evaluates volume shaders only inside the volume's bounds)."""
+    px, py, pz = _to_index(G, x, y, z)
+    if not (0.0 <= px <= G.shape[0] - 1 and 0.0 <= py <= G.shape[1] - 1 and 0.0 <= pz <= G.shape[2] - 1):
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    run_program(G.program_code, G.program_init, G.program_tables, G.registers, G.frame, G.attributes,
+                G.world_to_index, x, y, z)
+    return closure_coefficients(G.registers)
 
 
 @stage_kernel
@@ -302,7 +326,12 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                 er += wr * emr * inv
                 eg += wg * emg * inv
                 eb += wb * emb * inv
-                nr, ng, nb = max(rate - str_, 0.0), max(rate - stg, 0.0), max(rate - stb, 0.0)
+                nr, ng, nb = rate - str_, rate - stg, rate - stb
+                if not G.has_program:  # conservative bounds: only rounding makes these negative
+                    nr, ng, nb = max(nr, 0.0), max(ng, 0.0), max(nb, 0.0)
+                # A program medium's majorant is sampled, so sigma_t may exceed it: the null
+                # coefficient is then negative and weighted delta tracking stays unbiased (Kutz et
+                # al. 2017, sect. 4: any P(scatter) in (0, 1) with weights sigma / (rate P)).
                 pr = abs(br) * (ssr / str_ if str_ > 0.0 else 1.0)
                 pg = abs(bg) * (ssg / stg if stg > 0.0 else 1.0)
                 pb = abs(bb) * (ssb / stb if stb > 0.0 else 1.0)
@@ -311,9 +340,10 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                     pr, pg, pb = pr / total, pg / total, pb / total
                 else:
                     pr = pg = pb = 1.0 / 3.0
-                prob = (pr * (ssr / (ssr + nr) if ssr + nr > 0.0 else 0.0)
-                        + pg * (ssg / (ssg + ng) if ssg + ng > 0.0 else 0.0)
-                        + pb * (ssb / (ssb + nb) if ssb + nb > 0.0 else 0.0))
+                anr, ang, anb = abs(nr), abs(ng), abs(nb)
+                prob = (pr * (ssr / (ssr + anr) if ssr + anr > 0.0 else 0.0)
+                        + pg * (ssg / (ssg + ang) if ssg + ang > 0.0 else 0.0)
+                        + pb * (ssb / (ssb + anb) if ssb + anb > 0.0 else 0.0))
                 u = uniform1(key, np.uint64(stream) + np.uint64(draws))
                 draws += 1
                 if u < prob:
@@ -325,7 +355,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                 else:
                     f = inv / (1.0 - prob)
                     wr, wg, wb = wr * nr * f, wg * ng * f, wb * nb * f
-                if stop or not (wr > 0.0 or wg > 0.0 or wb > 0.0):
+                if stop or _ended(G, wr, wg, wb):
                     return t_event, scattered, wr, wg, wb, er, eg, eb
             else:
                 if mode == 1:
@@ -346,10 +376,15 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                     er += wr * emr * inv
                     eg += wg * emg * inv
                     eb += wb * emb * inv
-                wr *= max(1.0 - qr * inv, 0.0)
-                wg *= max(1.0 - qg * inv, 0.0)
-                wb *= max(1.0 - qb * inv, 0.0)
-                if not (wr > 0.0 or wg > 0.0 or wb > 0.0):
+                if G.has_program:  # sampled majorant: signed ratio factors keep it unbiased
+                    wr *= 1.0 - qr * inv
+                    wg *= 1.0 - qg * inv
+                    wb *= 1.0 - qb * inv
+                else:
+                    wr *= max(1.0 - qr * inv, 0.0)
+                    wg *= max(1.0 - qg * inv, 0.0)
+                    wb *= max(1.0 - qb * inv, 0.0)
+                if _ended(G, wr, wg, wb):
                     return t_max, False, 0.0, 0.0, 0.0, er, eg, eb
         else:  # step into the next cell along the nearest crossing (pbrt-v4 Next())
             t = cell_end
@@ -369,6 +404,14 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
     if mode == 1:
         wr, wg, wb = wr * np.exp(-cr), wg * np.exp(-cg), wb * np.exp(-cb)
     return t_event, scattered, wr, wg, wb, er, eg, eb
+
+
+@inline_stage_kernel
+def _ended(G, wr, wg, wb):
+    """No channel carries weight any more (program media may carry negative weights)."""
+    if G.has_program:
+        return wr == 0.0 and wg == 0.0 and wb == 0.0
+    return not (wr > 0.0 or wg > 0.0 or wb > 0.0)
 
 
 @stage_kernel

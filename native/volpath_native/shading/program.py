@@ -104,6 +104,14 @@ OP_GAMMA = define("GAMMA", 23, "color3", "gamma", "out3")
 OP_BRIGHT_CONTRAST = define("BRIGHT_CONTRAST", 24, "color3", "bright", "contrast", "out3")
 OP_HUE_SAT = define("HUE_SAT", 25, "hue", "saturation", "value", "factor", "color3", "out3")
 OP_RGB_TO_BW = define("RGB_TO_BW", 26, "color3", "weights3", "out")
+# Texture Coordinate node from the evaluating object's frame (svm/tex_coord.h): kind# TEXCO_*.
+# Inside volumes Generated is the object's texture space (mesh: (P_obj - L) / 2S + 0.5; Volume
+# geometry in Cycles 5.0: raw P_obj; the medium's object_to_generated carries either).
+OP_TEXCO = define("TEXCO", 27, "kind#", "out3")
+TEXCO_GENERATED, TEXCO_OBJECT, TEXCO_POSITION, TEXCO_NORMAL, TEXCO_UV, TEXCO_INCOMING = range(6)
+# Vector Map Range (svm/map_range.h svm_node_vector_map_range): per component
+OP_MAP_RANGE_VECTOR = define("MAP_RANGE_VECTOR", 28, "kind#", "clamp#", "value3", "from_min3", "from_max3",
+                             "to_min3", "to_max3", "steps3", "out3")
 # Volume closures (svm/closure.h), accumulated into R_SIGMA_A / R_EMISSION / R_LOBES, each
 # multiplied by the weight register (the product of the Mix/Add shader factors above it).
 #   lobe# is the scattering slot (0..MAX_LOBES-1) the compiler gave this closure.

@@ -1,0 +1,236 @@
+"""Media whose coefficients come from a shader program: procedural density, colour and emission.
+
+A ProgramMedium is what a volume material whose nodes vary over space becomes (a Principled Volume
+whose Density is a Noise Texture through a Color Ramp, a height fog from Texture Coordinate ->
+Separate XYZ -> Map Range, ...). Cycles 5.0 evaluates such a shader at every tentative collision of
+its null-scattering tracker and every shadow-ray step (kernel/integrator/shade_volume.h,
+volume_shader_sample); so does VolPath: the grid trackers of grid_kernels run unchanged, and
+grid_coefficients runs the program (shading/interpreter.py) instead of reading voxels.
+
+The medium's box is the bounding box of its object (object space, mapped to the world by the
+object's transform), as Cycles bounds a volume by its mesh; the path's volume stack confines it to
+the mesh itself. The majorant grid over the box is *sampled* (as Cycles' octree is: C5
+src/scene/volume.cpp, VolumeManager::build_octree evaluates 16 points per cell of a 128^3 grid):
+each cell's bound is the largest extinction found at stratified points of the cell and its
+neighbours (a one-cell dilation), times MAJORANT_MARGIN, and at least MAJORANT_FLOOR of the medium's
+largest value. Where the true extinction still exceeds it, the trackers use signed null-collision
+and ratio-tracking weights (grid_kernels: weighted delta tracking, Kutz et al. 2017), so the image
+stays unbiased -- only noisier; such events are counted and reported (Cycles instead raises the
+majorant locally and notes that this is "not really unbiased", shade_volume.h).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .grid_kernels import FLAG_MAJORANT, TRACKING_BUDGET
+from .grid_medium import GridMedium
+from .jit import stage_kernel
+from .sampling import seed_key, uniform1
+from .scene import SceneError
+from .shading.interpreter import closure_coefficients, run_program
+from .shading.program import LOBE_STRIDE, MAX_LOBES, R_LOBES, ShaderProgram
+
+#: majorant cells along each axis of the box
+DEFAULT_MAJORANT_RESOLUTION = 24
+#: stratified samples along each axis of a cell when building the majorant
+SAMPLES_PER_CELL_AXIS = 4
+#: safety factor on the sampled maximum
+MAJORANT_MARGIN = 1.25
+#: every cell's majorant is at least this fraction of the medium's largest sampled extinction,
+#: so features the sampling missed are still reached by collisions (unbiased, see the docstring)
+MAJORANT_FLOOR = 1e-3
+
+
+@stage_kernel
+def _cell_extrema(code, init, tables, regs, frame, attributes, world_to_index, index_to_world, cells, n_axis,
+                  key, max_extinction, max_emission, bad):
+    """Per majorant cell: the largest max-channel sigma_t and |emission| over n_axis^3 stratified
+    jittered points (index space cell i spans [i, i + 1] x cell size); bad[0] counts evaluations
+    with non-finite or negative coefficients before sanitising."""
+    rx, ry, rz = max_extinction.shape[0], max_extinction.shape[1], max_extinction.shape[2]
+    dimension = np.uint64(0)
+    for i in range(rx):
+        for j in range(ry):
+            for k in range(rz):
+                best_t = 0.0
+                best_e = 0.0
+                for a in range(n_axis):
+                    for b in range(n_axis):
+                        for c in range(n_axis):
+                            u0 = uniform1(key, dimension)
+                            u1 = uniform1(key, dimension + np.uint64(1))
+                            u2 = uniform1(key, dimension + np.uint64(2))
+                            dimension += np.uint64(3)
+                            x = (i + (a + u0) / n_axis) * cells[0]
+                            y = (j + (b + u1) / n_axis) * cells[1]
+                            z = (k + (c + u2) / n_axis) * cells[2]
+                            m = index_to_world
+                            px = m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]
+                            py = m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]
+                            pz = m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3]
+                            run_program(code, init, tables, regs, frame, attributes, world_to_index, px, py, pz)
+                            for q in range(MAX_LOBES):
+                                base = R_LOBES + q * LOBE_STRIDE
+                                for ch in range(3):
+                                    v = regs[base + ch]
+                                    if not v >= 0.0:
+                                        bad[0] += 1
+                            c9 = closure_coefficients(regs)
+                            best_t = max(best_t, max(c9[3], max(c9[4], c9[5])))
+                            best_e = max(best_e, max(abs(c9[6]), max(abs(c9[7]), abs(c9[8]))))
+                max_extinction[i, j, k] = best_t
+                max_emission[i, j, k] = best_e
+
+
+class ProgramMedium(GridMedium):
+    """A medium inside an object's bounding box whose sigma_s, sigma_a and emission are a shader
+    program's volume closures at each point.
+
+    program: shading.ShaderProgram (volume closures; program.varying should be True, else a
+        homogeneous Medium does the same for less).
+    object_to_world: 4x4 of the object the material is on (Texture Coordinate > Object).
+    bounds: (lo, hi) object-space box of the object's geometry; the medium is evaluated inside it.
+    object_to_generated: 3x4 affine map to Generated texture coordinates (mesh texture space
+        (P - L) / 2S + 0.5; identity for Cycles 5.0's Volume geometry).
+    g: Henyey-Greenstein anisotropy of its scattering (constant over the medium).
+    attributes: optional (nx, ny, nz, c) float32 grid attributes in the box's index space
+        (index i of n_voxels spans the box evenly), channels in program.attributes order.
+    """
+
+    def __init__(self, name: str, program: ShaderProgram, object_to_world, bounds, object_to_generated=None,
+                 *, g: float = 0.0, attributes=None, majorant_resolution: int = DEFAULT_MAJORANT_RESOLUTION,
+                 debug: bool = False):
+        self.name = name
+        self.program = program
+        program.validate()
+        self.g = float(np.clip(np.nan_to_num(float(g)), -0.999, 0.999))
+        self.debug = bool(debug)
+        self.object_to_world = np.asarray(object_to_world, dtype=np.float64).reshape(4, 4)
+        if not np.all(np.isfinite(self.object_to_world)) or abs(np.linalg.det(self.object_to_world[:3, :3])) < 1e-30:
+            raise SceneError(f"program medium '{name}': object transform is singular or not finite")
+        lo, hi = (np.asarray(b, dtype=np.float64).reshape(3) for b in bounds)
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi >= lo)):
+            raise SceneError(f"program medium '{name}': bounds {lo.tolist()} .. {hi.tolist()} are not a box")
+        # A flat object still gets a thin box (its rays cross it in no time).
+        self.object_bounds = (lo, hi)
+        pad = np.maximum((hi - lo) * 1e-4, 1e-6)
+        self.bounds = (lo - pad, hi + pad)
+        resolution = max(int(majorant_resolution), 1)
+        self.majorant_resolution = resolution
+        # Index space [0, R] per axis spans the box; the majorant has one cell per index unit.
+        box_to_object = np.eye(4)
+        box_to_object[:3, :3] = np.diag((self.bounds[1] - self.bounds[0]) / resolution)
+        box_to_object[:3, 3] = self.bounds[0]
+        self.index_to_world = self.object_to_world @ box_to_object
+        self.source_index_to_world = self.index_to_world
+        self.world_to_index = np.linalg.inv(self.index_to_world)
+        self.shape = np.full(3, resolution + 1, dtype=np.int64)
+        self.density = np.zeros((2, 2, 2), np.float32)  # unused: the program gives the coefficients
+        self.scatter_grid = self.absorb_grid = self.emission_grid = None
+        self.sigma_s = self.sigma_a = self.emission = np.zeros(3)
+        world_to_object = np.linalg.inv(self.object_to_world)[:3]
+        generated = np.eye(4)[:3] if object_to_generated is None else np.asarray(object_to_generated, np.float64)
+        self.frame = np.ascontiguousarray(np.stack([world_to_object, generated.reshape(3, 4)]), dtype=np.float64)
+        n_channels = sum(width for _, width in program.attributes)
+        if attributes is None:
+            attributes = np.zeros((1, 1, 1, max(n_channels, 1)), np.float32)
+        self.attributes = np.ascontiguousarray(attributes, dtype=np.float32)
+        if self.attributes.ndim != 4 or self.attributes.shape[3] < n_channels:
+            raise SceneError(f"program medium '{name}': attributes must be (nx, ny, nz, {n_channels}), "
+                             f"got {self.attributes.shape}")
+        self._registers = np.zeros(program.n_registers)
+        self._flags = np.zeros(3, dtype=np.int64)
+        self._violation = np.zeros((2, 5))
+        self._stop = np.zeros(1, dtype=np.int64)
+        self.invalid_evaluations = 0
+        self._build_majorant_grid(resolution)
+
+    # ------------------------------------------------------------------------------------------
+    def _program_tables(self) -> dict:
+        p = self.program
+        return dict(has_program=True, program_code=p.code, program_init=p.init, program_tables=p.tables,
+                    registers=self._registers, frame=self.frame, attributes=self.attributes)
+
+    def _build_majorant_grid(self, resolution: int):
+        """Sampled per-cell maxima, dilated by one cell, with a margin and a floor (module docstring)."""
+        shape = (resolution,) * 3
+        max_extinction, max_emission = np.zeros(shape), np.zeros(shape)
+        bad = np.zeros(1, np.int64)
+        p = self.program
+        _cell_extrema(p.code, p.init, p.tables, self._registers, self.frame, self.attributes,
+                      np.ascontiguousarray(self.world_to_index[:3]), np.ascontiguousarray(self.index_to_world[:3]),
+                      np.ones(3), SAMPLES_PER_CELL_AXIS, seed_key(0x5EED), max_extinction, max_emission, bad)
+        self.invalid_evaluations = int(bad[0])
+        # the largest value of the cell and its 26 neighbours (a separable 3x3x3 max filter)
+        dilated = max_extinction
+        for axis in range(3):
+            padded = np.pad(dilated, [(1, 1) if a == axis else (0, 0) for a in range(3)])
+            dilated = np.maximum(np.maximum(np.take(padded, range(0, resolution), axis=axis),
+                                            np.take(padded, range(1, resolution + 1), axis=axis)),
+                                 np.take(padded, range(2, resolution + 2), axis=axis))
+        peak = float(dilated.max())
+        majorant = np.maximum(dilated * MAJORANT_MARGIN, MAJORANT_FLOOR * peak)
+        emissive = max_emission > 0.0
+        if emissive.any():
+            # emission is collected at tentative collisions: a few per cell crossing where it glows
+            world_cell = np.linalg.norm(self.index_to_world[:3, :3], axis=0).min()
+            majorant = np.where(emissive, np.maximum(majorant, 4.0 / world_cell), majorant)
+        self.majorant_shape = np.array(shape, dtype=np.int64)
+        self.cell_size = np.ones(3)
+        self.majorant_grid = majorant.astype(np.float64)
+        self.majorant_density = self.majorant_grid
+        self.majorant_rgb = np.repeat(self.majorant_grid[..., None], 3, axis=-1)
+        # no minorant: residual ratio tracking becomes ratio tracking against the majorant
+        self.minorant_rgb = np.zeros(shape + (3,))
+        self.residual_rate = self.majorant_grid
+
+    def check_flags(self, tables) -> int:
+        """As GridMedium.check_flags, but majorant violations are expected (the bound is sampled)
+        and only counted (violations()); the tracking stays unbiased."""
+        count = int(tables.flags[FLAG_MAJORANT])
+        self.violation_count = getattr(self, "violation_count", 0) + count
+        tables.flags[FLAG_MAJORANT] = 0
+        return super().check_flags(tables)
+
+    def warnings(self) -> list:
+        messages = []
+        if self.invalid_evaluations:
+            messages.append(f"volume '{self.name}': its shader gave negative or non-finite scattering at "
+                            f"{self.invalid_evaluations} of the points sampled for its majorant; read as 0")
+        return messages
+
+    def budget_message(self, count: int) -> str:
+        return (f"volume '{self.name}': {count} rays would have needed more than {TRACKING_BUDGET} "
+                "collisions through its procedural density and were treated as opaque")
+
+    def boundary_mesh(self, material_id: int):
+        raise SceneError(f"program medium '{self.name}' is bounded by its own mesh")
+
+    def to_record(self):
+        p = self.program
+        header = {"type": "program", "name": self.name, "g": self.g, "object_to_world": self.object_to_world.tolist(),
+                  "bounds": [self.object_bounds[0].tolist(), self.object_bounds[1].tolist()],
+                  "object_to_generated": self.frame[1].tolist(), "majorant_resolution": self.majorant_resolution,
+                  "program_name": p.name, "program_varying": bool(p.varying),
+                  "program_attributes": [[n, int(w)] for n, w in p.attributes]}
+        arrays = {"program_code": p.code, "program_init": p.init, "program_tables": p.tables,
+                  "attributes": self.attributes}
+        return header, arrays
+
+    @classmethod
+    def from_record(cls, header: dict, arrays: dict, debug: bool = False) -> "ProgramMedium":
+        program = ShaderProgram(header.get("program_name", header["name"]), arrays["program_code"],
+                                arrays["program_init"], arrays["program_tables"],
+                                varying=bool(header.get("program_varying", True)),
+                                attributes=[(str(n), int(w)) for n, w in header.get("program_attributes", [])])
+        try:
+            program.validate()
+        except ValueError as error:
+            raise SceneError(str(error))
+        lo, hi = header["bounds"]
+        medium = cls(header["name"], program, np.asarray(header["object_to_world"]), (lo, hi),
+                     np.asarray(header["object_to_generated"]), g=header.get("g", 0.0),
+                     attributes=arrays.get("attributes"), majorant_resolution=header.get("majorant_resolution",
+                                                                                        DEFAULT_MAJORANT_RESOLUTION),
+                     debug=debug)
+        return medium
