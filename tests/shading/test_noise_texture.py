@@ -75,7 +75,7 @@ def cycles_values():
 
 def evaluate(variant, i, j, planted_scale=1.0):
     p = variant.params
-    x, y, z, w = point_inputs(variant, i, j)
+    x, y, z, w = (c.astype(np.float64) for c in point_inputs(variant, i, j))  # float32 values
     out = np.array([noise_texture(p["dims"], NOISE_TYPES[p["type"]], p["normalize"], True, x[k], y[k], z[k], w[k],
                                   p["scale"], p["detail"], p["roughness"], p["lacunarity"], p["offset"], p["gain"],
                                   p["distortion"]) for k in range(len(x))])

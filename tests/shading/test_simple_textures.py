@@ -124,7 +124,7 @@ def cycles_values():
 def evaluate(variant, i, j, function=None):
     x, y, z, w = point_inputs(variant, i, j)
     function = function or variant.params["ours"]
-    return np.array([function(x[k], y[k], z[k], w[k]) for k in range(len(x))])
+    return np.array([function(float(x[k]), float(y[k]), float(z[k]), float(w[k])) for k in range(len(x))])
 
 
 def test_simple_textures_match_cycles(cycles_values):

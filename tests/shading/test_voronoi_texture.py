@@ -81,7 +81,7 @@ def cycles_values():
 
 def evaluate(variant, i, j):
     p = variant.params
-    x, y, z, w = point_inputs(variant, i, j)
+    x, y, z, w = (c.astype(np.float64) for c in point_inputs(variant, i, j))  # float32 values
     return np.array([voronoi_texture(p["dims"], VORONOI_FEATURES[p["feature"]], VORONOI_METRICS[p["metric"]],
                                      p["normalize"], x[k], y[k], z[k], w[k], p["scale"], p["detail"], p["roughness"],
                                      p["lacunarity"], p["smoothness"], p["exponent"], p["randomness"])
