@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ...jit import stage_kernel
+from ...jit import inline_stage_kernel, stage_kernel
 
 MASK32 = 0xFFFFFFFF
 #: 1/(float)0xFFFFFFFFu and 1/(float)0x7FFFFFFFu: the divisors round to 2^32 and 2^31 in float32
@@ -21,14 +21,14 @@ INV_UINT32_FLOAT = 2.0 ** -32
 INV_INT31_FLOAT = 2.0 ** -31
 
 
-@stage_kernel
+@inline_stage_kernel
 def rot(x, k):
     """hash.h `rot`: 32-bit left rotation."""
     x = x & MASK32
     return ((x << k) | (x >> (32 - k))) & MASK32
 
 
-@stage_kernel
+@inline_stage_kernel
 def lookup3_final(a, b, c):
     """hash.h macro `final` (Jenkins lookup3): rotations 14, 11, 25, 16, 4, 14, 24."""
     c = (c ^ b) & MASK32
@@ -48,7 +48,7 @@ def lookup3_final(a, b, c):
     return a, b, c
 
 
-@stage_kernel
+@inline_stage_kernel
 def lookup3_mix(a, b, c):
     """hash.h macro `mix` (Jenkins lookup3): rotations 4, 6, 8, 16, 19, 4."""
     a = (a - c) & MASK32
@@ -111,7 +111,7 @@ def hash_uint4(kx, ky, kz, kw):
     return c
 
 
-@stage_kernel
+@inline_stage_kernel
 def uint_to_float_incl(n):
     """hash.h `uint_to_float_incl`: (float)n * (1/(float)0xFFFFFFFF), i.e. n rounded to float32
     (24 bits) times 2^-32, as float64 (exact)."""
@@ -190,7 +190,7 @@ def hash_float4_to_float3(kx, ky, kz, kw):
 # ---------------------------------------------------------------------------------------------
 # PCG hashes on signed int32 (hash.h hash_pcg{2,3,4}d_i), used by Voronoi 2D-4D
 # ---------------------------------------------------------------------------------------------
-@stage_kernel
+@inline_stage_kernel
 def wrap_int32(v):
     """The int32 value of the low 32 bits of v (two's complement wrap)."""
     v = v & MASK32
@@ -251,7 +251,7 @@ def hash_pcg4d_i(x, y, z, w):
     return x & 0x7FFFFFFF, y & 0x7FFFFFFF, z & 0x7FFFFFFF, w & 0x7FFFFFFF
 
 
-@stage_kernel
+@inline_stage_kernel
 def int31_to_float(h):
     """(float)h * (1/(float)0x7FFFFFFF) of hash.h `hash_int*_to_float*`: h rounded to float32 times
     2^-31, as float64 (exact)."""

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from ...jit import stage_kernel
+from ...jit import inline_stage_kernel, stage_kernel
 from .hash import hash_uint, hash_uint2, hash_uint3, hash_uint4, MASK32
 
 #: noise.h noise_scale1..4 (experimental OSL constants), as the float32 Cycles multiplies by
@@ -24,20 +24,20 @@ NOISE_WRAP = 100000.0
 NOISE_PRECISION_LIMIT = 1000000.0
 
 
-@stage_kernel
+@inline_stage_kernel
 def fade(t):
     """noise.h `fade`: t^3 (t (6t - 15) + 10)."""
     return t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
 
 
-@stage_kernel
+@inline_stage_kernel
 def floorfrac(x):
     """util/math_base.h `floorfrac` on a float32: (int floor, float32 x - floor as float64)."""
     f = np.float32(math.floor(x))
     return int(f), float(np.float32(x) - f)
 
 
-@stage_kernel
+@inline_stage_kernel
 def grad1(h, x):
     """noise.h `grad1`: gradient 1 + (h & 7), negated by bit 3."""
     h = h & 15
@@ -45,7 +45,7 @@ def grad1(h, x):
     return (-g if h & 8 else g) * x
 
 
-@stage_kernel
+@inline_stage_kernel
 def grad2(h, x, y):
     """noise.h `grad2`."""
     h = h & 7
@@ -54,7 +54,7 @@ def grad2(h, x, y):
     return (-u if h & 1 else u) + (-v if h & 2 else v)
 
 
-@stage_kernel
+@inline_stage_kernel
 def grad3(h, x, y, z):
     """noise.h `grad3`."""
     h = h & 15
@@ -64,7 +64,7 @@ def grad3(h, x, y, z):
     return (-u if h & 1 else u) + (-v if h & 2 else v)
 
 
-@stage_kernel
+@inline_stage_kernel
 def grad4(h, x, y, z, w):
     """noise.h `grad4`."""
     h = h & 31
@@ -74,7 +74,7 @@ def grad4(h, x, y, z, w):
     return (-u if h & 1 else u) + (-v if h & 2 else v) + (-s if h & 4 else s)
 
 
-@stage_kernel
+@inline_stage_kernel
 def lerp(a, b, t):
     """util/math_base.h `mix`."""
     return a + t * (b - a)
@@ -158,7 +158,7 @@ def perlin_4d(x, y, z, w):
     return lerp(a, b, s)
 
 
-@stage_kernel
+@inline_stage_kernel
 def wrap_coordinate(p):
     """noise.h `snoise_*`: fmod(p, 1e5) + 0.5 (|p| >= 1e6), in float32 (fmod is exact)."""
     p = np.float32(p)
