@@ -1,0 +1,202 @@
+"""Cycles' Perlin noise, 1D-4D (Cycles src/kernel/svm/noise.h).
+
+Coordinates are float32 as in Cycles: the wrap (fmod 1e5), the precision correction, floor and
+the fractional part decide lattice cells and hashes, and must round as Cycles does. The
+interpolation runs in float64 (Cycles' float32, and its SSE/AVX evaluation order, differ from it
+by a few ulps; cycles-volumes-from-blender.md section 3 "may be approximated").
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...jit import inline_stage_kernel, stage_kernel
+from .hash import hash_uint, hash_uint2, hash_uint3, hash_uint4, MASK32
+
+#: noise.h noise_scale1..4 (experimental OSL constants), as the float32 Cycles multiplies by
+NOISE_SCALE_1D = float(np.float32(0.2500))
+NOISE_SCALE_2D = float(np.float32(0.6616))
+NOISE_SCALE_3D = float(np.float32(0.9820))
+NOISE_SCALE_4D = float(np.float32(0.8344))
+#: noise.h snoise_*: repeat every 1e5 (fmod), +0.5 where |p| >= 1e6
+NOISE_WRAP = 100000.0
+NOISE_PRECISION_LIMIT = 1000000.0
+
+
+@inline_stage_kernel
+def fade(t):
+    """noise.h `fade`: t^3 (t (6t - 15) + 10)."""
+    return t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+
+
+@inline_stage_kernel
+def floorfrac(x):
+    """util/math_base.h `floorfrac` on a float32: (int floor, float32 x - floor as float64)."""
+    f = np.float32(math.floor(x))
+    return int(f), float(np.float32(x) - f)
+
+
+@inline_stage_kernel
+def grad1(h, x):
+    """noise.h `grad1`: gradient 1 + (h & 7), negated by bit 3."""
+    h = h & 15
+    g = 1.0 + (h & 7)
+    return (-g if h & 8 else g) * x
+
+
+@inline_stage_kernel
+def grad2(h, x, y):
+    """noise.h `grad2`."""
+    h = h & 7
+    u = x if h < 4 else y
+    v = 2.0 * (y if h < 4 else x)
+    return (-u if h & 1 else u) + (-v if h & 2 else v)
+
+
+@inline_stage_kernel
+def grad3(h, x, y, z):
+    """noise.h `grad3`."""
+    h = h & 15
+    u = x if h < 8 else y
+    vt = x if (h == 12 or h == 14) else z
+    v = y if h < 4 else vt
+    return (-u if h & 1 else u) + (-v if h & 2 else v)
+
+
+@inline_stage_kernel
+def grad4(h, x, y, z, w):
+    """noise.h `grad4`."""
+    h = h & 31
+    u = x if h < 24 else y
+    v = y if h < 16 else z
+    s = z if h < 8 else w
+    return (-u if h & 1 else u) + (-v if h & 2 else v) + (-s if h & 4 else s)
+
+
+@inline_stage_kernel
+def lerp(a, b, t):
+    """util/math_base.h `mix`."""
+    return a + t * (b - a)
+
+
+@stage_kernel
+def perlin_1d(x):
+    """noise.h `perlin_1d`."""
+    X, fx = floorfrac(x)
+    u = fade(fx)
+    return lerp(grad1(hash_uint(X & MASK32), fx), grad1(hash_uint((X + 1) & MASK32), fx - 1.0), u)
+
+
+@stage_kernel
+def perlin_2d(x, y):
+    """noise.h `perlin_2d` (scalar bi_mix)."""
+    X, fx = floorfrac(x)
+    Y, fy = floorfrac(y)
+    u = fade(fx)
+    v = fade(fy)
+    X0, X1, Y0, Y1 = X & MASK32, (X + 1) & MASK32, Y & MASK32, (Y + 1) & MASK32
+    v0 = grad2(hash_uint2(X0, Y0), fx, fy)
+    v1 = grad2(hash_uint2(X1, Y0), fx - 1.0, fy)
+    v2 = grad2(hash_uint2(X0, Y1), fx, fy - 1.0)
+    v3 = grad2(hash_uint2(X1, Y1), fx - 1.0, fy - 1.0)
+    return (1.0 - v) * (v0 * (1.0 - u) + v1 * u) + v * (v2 * (1.0 - u) + v3 * u)
+
+
+@stage_kernel
+def perlin_3d(x, y, z):
+    """noise.h `perlin_3d` (scalar tri_mix)."""
+    X, fx = floorfrac(x)
+    Y, fy = floorfrac(y)
+    Z, fz = floorfrac(z)
+    u = fade(fx)
+    v = fade(fy)
+    w = fade(fz)
+    X0, X1, Y0, Y1, Z0, Z1 = X & MASK32, (X + 1) & MASK32, Y & MASK32, (Y + 1) & MASK32, Z & MASK32, (Z + 1) & MASK32
+    gx, gy, gz = fx - 1.0, fy - 1.0, fz - 1.0
+    v0 = grad3(hash_uint3(X0, Y0, Z0), fx, fy, fz)
+    v1 = grad3(hash_uint3(X1, Y0, Z0), gx, fy, fz)
+    v2 = grad3(hash_uint3(X0, Y1, Z0), fx, gy, fz)
+    v3 = grad3(hash_uint3(X1, Y1, Z0), gx, gy, fz)
+    v4 = grad3(hash_uint3(X0, Y0, Z1), fx, fy, gz)
+    v5 = grad3(hash_uint3(X1, Y0, Z1), gx, fy, gz)
+    v6 = grad3(hash_uint3(X0, Y1, Z1), fx, gy, gz)
+    v7 = grad3(hash_uint3(X1, Y1, Z1), gx, gy, gz)
+    u1, v_1, w1 = 1.0 - u, 1.0 - v, 1.0 - w
+    return (w1 * (v_1 * (v0 * u1 + v1 * u) + v * (v2 * u1 + v3 * u))
+            + w * (v_1 * (v4 * u1 + v5 * u) + v * (v6 * u1 + v7 * u)))
+
+
+@stage_kernel
+def _perlin_4d_slice(X0, X1, Y0, Y1, Z0, Z1, W, fx, fy, fz, fw, u, v, t):
+    """The tri_mix of the 8 corners at one w lattice value (noise.h `perlin_4d`, `quad_mix`)."""
+    gx, gy, gz = fx - 1.0, fy - 1.0, fz - 1.0
+    v0 = grad4(hash_uint4(X0, Y0, Z0, W), fx, fy, fz, fw)
+    v1 = grad4(hash_uint4(X1, Y0, Z0, W), gx, fy, fz, fw)
+    v2 = grad4(hash_uint4(X0, Y1, Z0, W), fx, gy, fz, fw)
+    v3 = grad4(hash_uint4(X1, Y1, Z0, W), gx, gy, fz, fw)
+    v4 = grad4(hash_uint4(X0, Y0, Z1, W), fx, fy, gz, fw)
+    v5 = grad4(hash_uint4(X1, Y0, Z1, W), gx, fy, gz, fw)
+    v6 = grad4(hash_uint4(X0, Y1, Z1, W), fx, gy, gz, fw)
+    v7 = grad4(hash_uint4(X1, Y1, Z1, W), gx, gy, gz, fw)
+    u1, v_1, t1 = 1.0 - u, 1.0 - v, 1.0 - t
+    return (t1 * (v_1 * (v0 * u1 + v1 * u) + v * (v2 * u1 + v3 * u))
+            + t * (v_1 * (v4 * u1 + v5 * u) + v * (v6 * u1 + v7 * u)))
+
+
+@stage_kernel
+def perlin_4d(x, y, z, w):
+    """noise.h `perlin_4d`."""
+    X, fx = floorfrac(x)
+    Y, fy = floorfrac(y)
+    Z, fz = floorfrac(z)
+    W, fw = floorfrac(w)
+    u, v, t, s = fade(fx), fade(fy), fade(fz), fade(fw)
+    X0, X1, Y0, Y1, Z0, Z1 = X & MASK32, (X + 1) & MASK32, Y & MASK32, (Y + 1) & MASK32, Z & MASK32, (Z + 1) & MASK32
+    a = _perlin_4d_slice(X0, X1, Y0, Y1, Z0, Z1, W & MASK32, fx, fy, fz, fw, u, v, t)
+    b = _perlin_4d_slice(X0, X1, Y0, Y1, Z0, Z1, (W + 1) & MASK32, fx, fy, fz, fw - 1.0, u, v, t)
+    return lerp(a, b, s)
+
+
+@inline_stage_kernel
+def wrap_coordinate(p):
+    """noise.h `snoise_*`: fmod(p, 1e5) + 0.5 (|p| >= 1e6), in float32 (fmod is exact)."""
+    p = np.float32(p)
+    correction = np.float32(0.5) if abs(p) >= np.float32(NOISE_PRECISION_LIMIT) else np.float32(0.0)
+    return np.float32(np.fmod(float(p), NOISE_WRAP)) + correction
+
+
+@stage_kernel
+def snoise_1d(x):
+    """noise.h `snoise_1d`: signed noise in about [-1, 1]."""
+    return NOISE_SCALE_1D * perlin_1d(wrap_coordinate(x))
+
+
+@stage_kernel
+def snoise_2d(x, y):
+    """noise.h `snoise_2d`."""
+    return NOISE_SCALE_2D * perlin_2d(wrap_coordinate(x), wrap_coordinate(y))
+
+
+@stage_kernel
+def snoise_3d(x, y, z):
+    """noise.h `snoise_3d`."""
+    return NOISE_SCALE_3D * perlin_3d(wrap_coordinate(x), wrap_coordinate(y), wrap_coordinate(z))
+
+
+@stage_kernel
+def snoise_4d(x, y, z, w):
+    """noise.h `snoise_4d`."""
+    return NOISE_SCALE_4D * perlin_4d(wrap_coordinate(x), wrap_coordinate(y), wrap_coordinate(z), wrap_coordinate(w))
+
+
+@stage_kernel
+def snoise(dimensions, x, y, z, w):
+    """snoise_{dimensions}d of the first `dimensions` of (x, y, z, w) (float32 coordinates)."""
+    if dimensions == 1:
+        return snoise_1d(x)
+    if dimensions == 2:
+        return snoise_2d(x, y)
+    if dimensions == 3:
+        return snoise_3d(x, y, z)
+    return snoise_4d(x, y, z, w)
