@@ -21,9 +21,12 @@ import numpy as np
 from volpath_native.shading import program as P
 from volpath_native.shading.builder import ProgramBuilder
 
-# Blender's default scene-linear space (Linear Rec.709) luminance weights: Cycles' rgb_to_y
-# (scene/shader.cpp ShaderManager::init_xyz_transforms, from OCIO's config).
-LUMINANCE = (0.2126729, 0.7151522, 0.0721750)
+# Luminance weights of Blender's scene-linear space, Cycles' rgb_to_y (C5 scene/shader.cpp
+# ShaderManager::init_xyz_transforms): the Y row of inverse(xyz_to_rgb), where xyz_to_rgb =
+# (Blender 5.0 config.ocio: Linear Rec.709 from XYZ D65) x (OCIO builtin ACES-AP0_to_CIE-XYZ-D65_BFD)
+# x inverse(Cycles' 6-decimal copy of that builtin). Not Cycles' no-OCIO fallback (0.2126729,
+# 0.7151522, 0.0721750), which differs by 3e-5; measured against Cycles in tests/shading.
+LUMINANCE = (0.2126390946, 0.7151691213, 0.0721927524)
 
 _FLOAT_TYPES = ("VALUE", "INT", "BOOLEAN")
 
