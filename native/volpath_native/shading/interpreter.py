@@ -539,21 +539,23 @@ def _mapping(regs, kind, v, loc, rot, scl, out):
 
 @stage_kernel
 def _map_range(kind, value, fmin, fmax, tmin, tmax, steps, clamp):
-    """Map Range, float (C5 svm/map_range.h svm_node_map_range; its clamp is MapRangeNode::expand's
-    range clamp, only for Linear and Stepped)."""
+    """Map Range, float (C5 svm/map_range.h svm_node_map_range). Its clamp is the Clamp node (range
+    type) that MapRangeNode::expand (scene/shader_nodes.cpp) puts after it for every interpolation
+    type, so it also clamps the 0 of an empty from-range."""
     if fmax == fmin:
-        return 0.0
-    if kind == 0:
-        f = (value - fmin) / (fmax - fmin)
-    elif kind == 1:
-        f = (value - fmin) / (fmax - fmin)
-        f = math.floor(f * (steps + 1.0)) / steps if steps > 0.0 else 0.0
-    elif kind == 2:
-        f = 1.0 - _smoothstep(fmax, fmin, value) if fmin > fmax else _smoothstep(fmin, fmax, value)
+        result = 0.0
     else:
-        f = 1.0 - _smootherstep(fmax, fmin, value) if fmin > fmax else _smootherstep(fmin, fmax, value)
-    result = tmin + f * (tmax - tmin)
-    if clamp and kind <= 1:
+        if kind == 0:
+            f = (value - fmin) / (fmax - fmin)
+        elif kind == 1:
+            f = (value - fmin) / (fmax - fmin)
+            f = math.floor(f * (steps + 1.0)) / steps if steps > 0.0 else 0.0
+        elif kind == 2:
+            f = 1.0 - _smoothstep(fmax, fmin, value) if fmin > fmax else _smoothstep(fmin, fmax, value)
+        else:
+            f = 1.0 - _smootherstep(fmax, fmin, value) if fmin > fmax else _smootherstep(fmin, fmax, value)
+        result = tmin + f * (tmax - tmin)
+    if clamp:
         result = _clamp(result, tmax, tmin) if tmin > tmax else _clamp(result, tmin, tmax)
     return result
 
