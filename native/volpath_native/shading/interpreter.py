@@ -685,20 +685,24 @@ def run_program(code, init, tables, regs, frame, attributes, world_to_index, px,
             for c in range(3):
                 regs[o + c] = _ramp_lookup(tables, code[a], 257, 4, c, f, code[a + 1] != 0, False)
             regs[code[a + 4]] = _ramp_lookup(tables, code[a], 257, 4, 3, f, code[a + 1] != 0, False)
-        elif op == OP_CURVE_FLOAT:  # svm_node_curve: f remapped to the curve's x range, extrapolated
-            lo, hi = regs[code[a + 2]], regs[code[a + 3]]
-            x = _safe_divide(regs[code[a + 5]] - lo, hi - lo)
-            y = _ramp_lookup(tables, code[a], code[a + 1], 1, 0, x, True, True)
-            fac = regs[code[a + 4]]
-            regs[code[a + 6]] = (1.0 - fac) * regs[code[a + 5]] + fac * y
-        elif op == OP_CURVE_RGB:  # svm_node_rgb_curves: tables of RGBA (per-channel curves)
-            lo, hi = regs[code[a + 2]], regs[code[a + 3]]
-            fac = regs[code[a + 4]]
-            i, o = code[a + 5], code[a + 6]
+        elif op == OP_CURVE_FLOAT:  # svm_node_curve: the value's position in [min_x, max_x] looked up
+            size, extrapolate = code[a + 1], code[a + 2] != 0
+            lo, hi = regs[code[a + 3]], regs[code[a + 4]]
+            v = regs[code[a + 6]]
+            # Cycles divides by the range unguarded; an empty range (all points at one x) reads the
+            # first entry here instead of inf / NaN
+            y = _ramp_lookup(tables, code[a], size, 1, 0, _safe_divide(v - lo, hi - lo), True, extrapolate)
+            fac = regs[code[a + 5]]
+            regs[code[a + 7]] = (1.0 - fac) * v + fac * y
+        elif op == OP_CURVE_RGB:  # svm_node_curves: each channel through its column of the table
+            size, extrapolate = code[a + 1], code[a + 2] != 0
+            lo, hi = regs[code[a + 3]], regs[code[a + 4]]
+            fac = regs[code[a + 5]]
+            i, o = code[a + 6], code[a + 7]
             for c in range(3):
-                x = _safe_divide(regs[i + c] - lo, hi - lo)
-                y = _ramp_lookup(tables, code[a], code[a + 1], 4, c, x, True, True)
-                regs[o + c] = (1.0 - fac) * regs[i + c] + fac * y
+                v = regs[i + c]
+                y = _ramp_lookup(tables, code[a], size, 3, c, _safe_divide(v - lo, hi - lo), True, extrapolate)
+                regs[o + c] = (1.0 - fac) * v + fac * y
         elif op == OP_SEPARATE3:
             i = code[a + 1]
             x, y, z = regs[i], regs[i + 1], regs[i + 2]
