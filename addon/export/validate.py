@@ -205,3 +205,14 @@ def check_camera(camera_object) -> None:
         value = float(getattr(cam, field))
         if not math.isfinite(value):
             raise vp.SceneError(f"camera '{name}': {field} is {_describe(value)}")
+    pano = ("fisheye_fov", "fisheye_lens", "latitude_min", "latitude_max", "longitude_min", "longitude_max",
+            "central_cylindrical_range_u_min", "central_cylindrical_range_u_max", "central_cylindrical_range_v_min",
+            "central_cylindrical_range_v_max", "central_cylindrical_radius")
+    for owner, fields in ((cam.dof, ("aperture_fstop", "focus_distance", "aperture_rotation", "aperture_ratio")),
+                          (cam, pano)):
+        for field in fields:
+            if not hasattr(owner, field):
+                continue
+            value = float(getattr(owner, field))
+            if not math.isfinite(value):
+                raise vp.SceneError(f"camera '{name}': {field} is {_describe(value)}")
