@@ -122,6 +122,8 @@ def export_film(scene, reporter) -> vp.Film:
     height = render.resolution_y * render.resolution_percentage // 100
     if render.pixel_aspect_x != render.pixel_aspect_y:
         reporter.warn("non-square pixel aspect is not supported; rendered with square pixels")
+    if getattr(render, "use_multiview", False):
+        reporter.warn("Stereoscopy (multi-view) is not supported; rendered as one mono view")
     if render.film_transparent:
         reporter.warn("Film > Transparent is not supported; the background is rendered opaque")
     crop = None

@@ -347,3 +347,38 @@ def test_huge_aperture_and_tiny_focus_render_finite_pixels():
     scene = _scene(camera, 8, [_square("sq", 1.0, 0.0)], spp=4)
     scene.world = vp.World(background=np.array([0.2, 0.2, 0.2]))
     assert np.all(np.isfinite(vp.render(scene).image))
+
+
+@pytest.mark.parametrize("kind", ["perspective", "orthographic", "panoramic"])
+def test_near_bounds_hold_every_ray_origin(kind):
+    """The box the volume-stack decision looks at holds the origin of every camera ray: any film
+    position the filter reaches, lens sample and shutter time."""
+    steps = [camera_at([0.0, 0.0, 2.0]), camera_at([0.4, 0.1, 2.0], look_dir=(0.2, 0.0, -1.0)),
+             camera_at([0.9, 0.1, 2.2], look_dir=(0.3, 0.1, -1.0))]
+    camera = vp.Camera(camera_at([0, 0, 2]), projection=kind, fov=1.2, ortho_scale=2.0, clip_start=0.5,
+                       aperture_size=0.3, focus_distance=0.7, aperture_blades=5, aperture_ratio=0.5,
+                       panorama_type="equirectangular", motion_transforms=steps)
+    model = CameraModel(camera, vp.Film(12, 8))
+    lo, hi = model.near_bounds(pad=1.5)
+    rng = np.random.default_rng(5)
+    n = 20000
+    o, _, _ = model.generate_rays(rng.uniform(-1.5, 13.5, n), rng.uniform(-1.5, 9.5, n), rng.random(n), rng.random(n),
+                                  rng.random(n))
+    assert np.all(o >= lo - 1e-9) and np.all(o <= hi + 1e-9)
+    assert np.all(hi - lo < 10.0)  # and it is not everything
+
+
+def test_lens_reaching_into_fog_finds_each_paths_stack():
+    """A camera just outside a fog box whose lens reaches into it: paths start in the stack of
+    their own origin (Cycles: the camera counts as inside a volume, per-path stack init)."""
+    from volpath_native.integrator import Integrator
+    from native_helpers import box_mesh
+
+    fog = box_mesh("fog", [-1, -1, -1], [1, 1, 1])
+    scene = vp.Scene(camera=vp.Camera(camera_at([0, 0, 1.05]), fov=0.5, clip_start=0.01, aperture_size=0.2,
+                                      focus_distance=1.0),
+                     film=vp.Film(4, 4), meshes=[fog], materials=[vp.Material("fog", surface="null", medium=0)],
+                     media=[vp.Medium("fog", sigma_s=1.0, sigma_a=0.0)])
+    assert Integrator(scene)._stack_per_path
+    scene.camera.aperture_size = 0.0
+    assert not Integrator(scene)._stack_per_path
