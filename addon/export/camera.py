@@ -7,6 +7,8 @@ import numpy as np
 
 import volpath_native as vp
 
+from .. import compat
+
 # scene.cycles.pixel_filter_type -> VolPath's filter names.
 _FILTERS = {"BLACKMAN_HARRIS": "blackman-harris", "BOX": "box", "GAUSSIAN": "gaussian"}
 
@@ -41,11 +43,13 @@ def export_camera(camera_object, reporter, motion_transforms=()) -> vp.Camera:
     if cam.type not in ("PERSP", "ORTHO", "PANO"):
         reporter.warn(f"camera '{name}': {cam.type.lower()} cameras are not supported; rendered as perspective")
     panorama_type = "fisheye_equisolid"
+    def pano(key):
+        return compat.camera_panorama(cam, key)
     if cam.type == "PANO":
-        if cam.panorama_type not in _PANORAMA_TYPES:
-            raise vp.SceneError(f"camera '{name}': the panorama type {cam.panorama_type} is not supported by "
+        if pano("panorama_type") not in _PANORAMA_TYPES:
+            raise vp.SceneError(f"camera '{name}': the panorama type {pano('panorama_type')} is not supported by "
                                 f"VolPath (supported: {', '.join(_PANORAMA_TYPES)})")
-        panorama_type = _PANORAMA_TYPES[cam.panorama_type]
+        panorama_type = _PANORAMA_TYPES[pano("panorama_type")]
     # Blender's viewplane (BKE_camera_params_compute_viewplane): AUTO and HORIZONTAL fit
     # sensor_width, VERTICAL fits sensor_height; fov = 2 atan(sensor / (2 lens)).
     sensor = cam.sensor_height if cam.sensor_fit == "VERTICAL" else cam.sensor_width
@@ -62,19 +66,17 @@ def export_camera(camera_object, reporter, motion_transforms=()) -> vp.Camera:
         name=name,
         **_depth_of_field(camera_object, projection, reporter),
         panorama_type=panorama_type,
-        fisheye_fov=float(cam.fisheye_fov),
-        fisheye_lens=float(cam.fisheye_lens),
+        fisheye_fov=float(pano("fisheye_fov")),
+        fisheye_lens=float(pano("fisheye_lens")),
         sensor_width=float(cam.sensor_width),
         sensor_height=float(cam.sensor_height),
-        latitude_min=float(cam.latitude_min), latitude_max=float(cam.latitude_max),
-        longitude_min=float(cam.longitude_min), longitude_max=float(cam.longitude_max),
+        latitude_min=float(pano("latitude_min")), latitude_max=float(pano("latitude_max")),
+        longitude_min=float(pano("longitude_min")), longitude_max=float(pano("longitude_max")),
         # blender_camera_sync divides the cylinder's heights by its radius
-        cylinder_u_min=float(getattr(cam, "central_cylindrical_range_u_min", -math.pi)),
-        cylinder_u_max=float(getattr(cam, "central_cylindrical_range_u_max", math.pi)),
-        cylinder_v_min=float(getattr(cam, "central_cylindrical_range_v_min", -1.0))
-        / float(getattr(cam, "central_cylindrical_radius", 1.0)),
-        cylinder_v_max=float(getattr(cam, "central_cylindrical_range_v_max", 1.0))
-        / float(getattr(cam, "central_cylindrical_radius", 1.0)),
+        cylinder_u_min=float(pano("central_cylindrical_range_u_min")),
+        cylinder_u_max=float(pano("central_cylindrical_range_u_max")),
+        cylinder_v_min=float(pano("central_cylindrical_range_v_min")) / float(pano("central_cylindrical_radius")),
+        cylinder_v_max=float(pano("central_cylindrical_range_v_max")) / float(pano("central_cylindrical_radius")),
         motion_transforms=[_without_scale(m) for m in motion_transforms],
     )
 
