@@ -241,11 +241,12 @@ def build(desc) -> Planted:
     if cam_desc["type"] == "PANO":
         cam.panorama_type = "EQUIRECTANGULAR"
     cam_obj = bpy.data.objects.new("Cam", cam)
-    if cam_desc["dof"] != "off":
+    dof = cam_desc.get("dof", "off")  # regression descriptions predate the lens and motion blur
+    if dof != "off":
         cam.dof.use_dof = True
-        cam.dof.aperture_fstop = 0.0 if cam_desc["dof"] == "zero_f_stop" else 2.0
-        cam.dof.focus_object = cam_obj if cam_desc["dof"] == "focus_self" else None
-    sc.render.use_motion_blur = cam_desc["motion_blur"]
+        cam.dof.aperture_fstop = 0.0 if dof == "zero_f_stop" else 2.0
+        cam.dof.focus_object = cam_obj if dof == "focus_self" else None
+    sc.render.use_motion_blur = cam_desc.get("motion_blur", False)
     cam_obj.location = (0.0, -8.0 if cam_desc["location"] == "normal" else math.nan, 0.0)
     cam_obj.rotation_euler = (math.pi / 2, 0.0, 0.0)
     sc.collection.objects.link(cam_obj)
