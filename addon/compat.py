@@ -2,10 +2,12 @@
 place. The rest of the add-on asks these helpers instead of testing bpy.app.version itself."""
 from __future__ import annotations
 
+import math
 import os
 import sys
 
 import bpy
+
 import numpy as np
 
 BLENDER_VERSION = tuple(bpy.app.version)
@@ -221,3 +223,23 @@ def use_per_user_kernel_cache() -> str | None:
 # compat is the first module the add-on package imports (addon/__init__.py), so this runs before
 # anything imports the renderer and defines its kernels.
 use_per_user_kernel_cache()
+
+
+# Blender's defaults of the panoramic camera settings (DNA_camera_defaults.h / Cycles' properties).
+_PANORAMA_DEFAULTS = {"panorama_type": "FISHEYE_EQUISOLID", "fisheye_fov": math.pi, "fisheye_lens": 10.5,
+                      "latitude_min": -0.5 * math.pi, "latitude_max": 0.5 * math.pi, "longitude_min": -math.pi,
+                      "longitude_max": math.pi, "central_cylindrical_range_u_min": -math.pi,
+                      "central_cylindrical_range_u_max": math.pi, "central_cylindrical_range_v_min": -1.0,
+                      "central_cylindrical_range_v_max": 1.0, "central_cylindrical_radius": 1.0}
+
+
+def camera_panorama(camera_data, key: str):
+    """A panoramic setting of a camera: on the Camera since Blender 3.5, on its Cycles settings
+    (camera.cycles) before; Blender's default where neither has it (e.g. central cylindrical
+    before 4.x)."""
+    if hasattr(camera_data, key):
+        return getattr(camera_data, key)
+    cycles = getattr(camera_data, "cycles", None)
+    if cycles is not None and hasattr(cycles, key):
+        return getattr(cycles, key)
+    return _PANORAMA_DEFAULTS[key]

@@ -39,7 +39,8 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             return
         started = time.perf_counter()
         try:
-            scene, warnings = export_scene(depsgraph, camera_object=self.camera_override, cancel=self.cancel_requested)
+            scene, warnings = export_scene(depsgraph, camera_object=self.camera_override, cancel=self.cancel_requested,
+                                           frame_set=lambda frame, subframe: self.frame_set(frame, subframe=subframe))
             _, _, width, height = _crop_window(scene.film)
         except ExportCancelled:
             self.update_stats("", "VolPath | cancelled while exporting")

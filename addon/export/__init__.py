@@ -15,25 +15,36 @@ import volpath_native as vp
 
 from .. import compat
 from . import camera as camera_export
-from . import fluid, geometry, grid_media, lights, shading, validate
+from . import fluid, geometry, grid_media, lights, motion, shading, validate
 
 __all__ = ["export_scene", "export_settings", "ExportCancelled"]
 
 
-def export_scene(depsgraph, camera_object=None, cancel=None):
+def export_scene(depsgraph, camera_object=None, cancel=None, frame_set=None):
     """Returns (volpath_native.Scene, warnings: list[str]). camera_object overrides scene.camera
     (RenderEngine.camera_override). cancel() is polled between objects: ExportCancelled when true.
-    A SceneError carries the warnings collected before it in `error.warnings`."""
+    A SceneError carries the warnings collected before it in `error.warnings`.
+    With motion blur on, the camera is read at the shutter's times by moving the frame with
+    frame_set(frame, subframe) (RenderEngine.frame_set inside a render; default: the scene's
+    frame_set, which re-evaluates the view layer's depsgraph); the frame comes back afterwards."""
     reporter = shading.Reporter()
+    scene = depsgraph.scene
+    if frame_set is None:
+        def frame_set(frame, subframe):
+            scene.frame_set(frame, subframe=subframe)
+    original_frame = (scene.frame_current, float(scene.frame_subframe))
     try:
         # Invalid numbers are named and replaced by the exporter itself (export/validate.py):
         # numpy's own floating-point warnings would only repeat them, unnamed.
         with np.errstate(all="ignore"):
-            vp_scene = _export(depsgraph, camera_object, reporter, cancel)
+            vp_scene = _export(depsgraph, camera_object, reporter, cancel, frame_set)
             validation_warnings = vp_scene.validate()  # raises SceneError for unusable input
     except vp.SceneError as error:
         error.warnings = list(reporter.messages)  # what else was wrong, for the user to see too
         raise
+    finally:
+        if scene.render.use_motion_blur and (scene.frame_current, float(scene.frame_subframe)) != original_frame:
+            frame_set(*original_frame)
     return vp_scene, reporter.messages + validation_warnings
 
 
@@ -41,16 +52,29 @@ class ExportCancelled(Exception):
     """cancel() became true during the export."""
 
 
-def _export(depsgraph, camera_object, reporter, cancel):
+def _export(depsgraph, camera_object, reporter, cancel, frame_set):
     scene = depsgraph.scene
     table = shading.MaterialTable(reporter)
 
     camera_object = camera_object or scene.camera
-    if camera_object is not None:
-        camera_object = camera_object.evaluated_get(depsgraph)
-        if camera_object.type == "CAMERA":
-            validate.check_camera(camera_object)
-    camera = camera_export.export_camera(camera_object, reporter)
+
+    def camera_now():
+        return camera_object.evaluated_get(depsgraph) if camera_object is not None else None
+
+    def objects_now():
+        return {obj.name: np.array(obj.matrix_world, dtype=np.float64) for obj in depsgraph.objects}
+    # Motion blur first: it moves the frame, and leaves it at the shutter's centre for the rest.
+    shutter = motion.camera_motion(scene, camera_now, frame_set, objects_now, reporter)
+    evaluated_camera = camera_now()
+    if evaluated_camera is not None and evaluated_camera.type == "CAMERA":
+        validate.check_camera(evaluated_camera)
+        for k, matrix in enumerate(shutter.camera_transforms):
+            if not np.all(np.isfinite(matrix)):
+                raise vp.SceneError(f"camera '{evaluated_camera.name}': its transform at motion step {k} is not finite")
+    camera = camera_export.export_camera(evaluated_camera, reporter, shutter.camera_transforms)
+    camera.shutter_curve = shutter.shutter_curve
+    camera.rolling_shutter = shutter.rolling_shutter
+    camera.rolling_shutter_duration = shutter.rolling_shutter_duration
     film = camera_export.export_film(scene, reporter)
 
     meshes, scene_lights, grid_sources = _export_instances(depsgraph, table, reporter, cancel)

@@ -20,6 +20,8 @@ import numpy as np
 
 import volpath_native as vp
 
+from .. import compat
+
 FLT_MAX = float(np.finfo(np.float32).max)
 
 
@@ -205,3 +207,11 @@ def check_camera(camera_object) -> None:
         value = float(getattr(cam, field))
         if not math.isfinite(value):
             raise vp.SceneError(f"camera '{name}': {field} is {_describe(value)}")
+    lens = {f: getattr(cam.dof, f) for f in ("aperture_fstop", "focus_distance", "aperture_rotation", "aperture_ratio")}
+    pano = {f: compat.camera_panorama(cam, f) for f in (
+        "fisheye_fov", "fisheye_lens", "latitude_min", "latitude_max", "longitude_min", "longitude_max",
+        "central_cylindrical_range_u_min", "central_cylindrical_range_u_max", "central_cylindrical_range_v_min",
+        "central_cylindrical_range_v_max", "central_cylindrical_radius")}
+    for field, value in {**lens, **pano}.items():
+        if not math.isfinite(float(value)):
+            raise vp.SceneError(f"camera '{name}': {field} is {_describe(float(value))}")

@@ -117,8 +117,9 @@ class Integrator:
         # rays share the camera position's stack unless a volume boundary passes between the
         # camera and the near clip plane (Cycles' is_inside_volume test on the viewplane bounds,
         # scene/camera.cpp device_update_volume); orthographic rays start from different points.
+        # A lens, a panoramic camera or camera motion moves the origins too: near_bounds holds them all.
         self._stack_per_path = bool(self.media.n_volumes) and (
-            scene.camera.projection != "perspective"
+            scene.camera.projection == "orthographic"
             or self.media.boundary_meets_box(*self.camera.near_bounds(self.filter.support + 1.0)))
         self._camera_stack = self.media.empty_stack(1)[0]
         if self.media.n_volumes and not self._stack_per_path:
@@ -144,17 +145,23 @@ class Integrator:
         return buffers
 
     def _start_paths(self, pixel: np.ndarray, sample: np.ndarray, buffers: "_Buffers"):
+        """Camera rays of the paths; returns the path state and how many paths live (paths the
+        camera has no ray for, outside a fisheye's circle, are compacted away: their pixels get
+        nothing from them, as Cycles' zero camera sensitivity)."""
         n = len(pixel)
         F, I, K, C = buffers.F[:n], buffers.I[:n], buffers.K[:n], buffers.C[:n]
         o32, d32, t32 = buffers.o32[:n], buffers.d32[:n], buffers.t32[:n]
+        alive = buffers.alive[:n]
         x0, y0, crop_width, _ = self.crop
-        pk.start_paths(self.tables, self.camera.tables, self.filter.inverse, self._seed_key, (x0, y0, crop_width),
-                       self.scene.film.width, np.ascontiguousarray(pixel, np.int64),
-                       np.ascontiguousarray(sample, np.int64), self._camera_stack, F, I, K, C, o32, d32, t32)
+        unseen = pk.start_paths(self.tables, self.camera.tables, self.filter.inverse, self._seed_key,
+                                (x0, y0, crop_width), self.scene.film.width, np.ascontiguousarray(pixel, np.int64),
+                                np.ascontiguousarray(sample, np.int64), self._camera_stack, F, I, K, C, o32, d32,
+                                t32, alive)
         if self._stack_per_path:
             C[:] = self.media.stack_at(F[:, pk.O:pk.O + 3])
             pk.initial_coefficients(self.tables, C, F, n)
-        return F, I, K, C, o32, d32, t32
+        live = pk.compact(F, I, K, C, n, alive, o32, d32, t32) if unseen else n
+        return F, I, K, C, o32, d32, t32, live
 
     def render_paths(self, pixel: np.ndarray, sample: np.ndarray, cancel=None):
         """Radiance estimates (N,3) for paths (crop-region pixel index, sample index) and stats:
@@ -164,11 +171,12 @@ class Integrator:
         n = len(pixel)
         stats = dict(rays=0, shadow_rays=0, vertices=0, paths=n)
         buffers = self._buffers(n)
-        F, I, K, C, o32, d32, t32 = self._start_paths(pixel, sample, buffers)
+        F, I, K, C, o32, d32, t32, live = self._start_paths(pixel, sample, buffers)
         Q = buffers.queue
         L = np.zeros((n, 4))  # RGB and the count of dropped contributions
         alive = buffers.alive[:n]
         alive[:] = True
+        n = live
         counter = np.zeros(1, np.int64)
         margin = 2.0 * self.accel.epsilon
         # grid tables with a violation record private to this batch (threads never share it),
