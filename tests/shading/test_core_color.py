@@ -205,3 +205,27 @@ def test_planted_errors_are_caught(rendered, variant_name, opcode, operand, old,
                                 mutate=lambda program: changed.append(replace_operand(program, opcode, operand,
                                                                                       old, new)))
     assert changed[0] >= 1 and failures
+
+
+def test_planted_luminance_error_is_caught(rendered):
+    """Cycles' no-OCIO fallback weights (0.2126729, 0.7151522, 0.0721750), 3e-5 off the weights
+    Blender's config gives, must fail the colour -> float conversions."""
+    from volpath_native.shading.program import OPERAND_COUNT, OPS
+
+    def fallback_weights(program):
+        changed, pc = 0, 0
+        while pc < len(program.code):
+            op = int(program.code[pc])
+            if op in (OPS["COLOR_TO_FLOAT"].code, OPS["RGB_TO_BW"].code):
+                weights = int(program.code[pc + 2])
+                program.init[weights:weights + 3] = (0.2126729, 0.7151522, 0.0721750)
+                changed += 1
+            pc += 1 + int(OPERAND_COUNT[op])
+        return changed
+
+    for name in ("color_ops", "conversions"):
+        index = _index(name)
+        changed = []
+        failures, _ = check_variant(CASES[index], index, rendered[index],
+                                    mutate=lambda program: changed.append(fallback_weights(program)))
+        assert changed[0] >= 1 and failures, name
