@@ -94,6 +94,7 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=
     triangulated: dict = {}  # evaluated mesh data -> LocalMesh (None: no triangles)
     grid_sources = set()  # "volume" / "fluid": grid media exported by _export_grid_media
     material_override = depsgraph.view_layer.material_override
+    budget = validate.MemoryBudget()
     for instance in depsgraph.object_instances:
         if cancel is not None and cancel():
             raise ExportCancelled()
@@ -139,6 +140,7 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=
         else:
             slot_materials = np.array([table.index_of(slot.material) for slot in obj.material_slots]
                                       or [table.index_of(None)], dtype=np.int32)
+        budget.add(obj.name, len(local.triangles))  # SceneError before the memory runs out
         if instance.is_instance:
             parent = instance.parent.name if instance.parent is not None else "instance"
             name = f"{parent}/{obj.name}#{len(meshes)}"
