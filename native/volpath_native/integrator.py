@@ -311,4 +311,32 @@ def warm_up(thorough: bool = False) -> float:
                   media=[GridMedium("cloud", density, to_world, np.full(3, 2.0), np.full(3, 0.5))],
                   lights=lights[:1], settings=RenderSettings(samples=1, threads=1))
     render(cloud)
+    _warm_up_programs(floor, fog, lights[:1])
     return time.perf_counter() - start
+
+
+def _warm_up_programs(floor, fog, lights):
+    """Compile the shader-program entry points outside the stages: the majorant builder of
+    procedural media (ProgramMedium) and the batch evaluator the exporter uses."""
+    from .program_medium import ProgramMedium
+    from .render import render
+    from .scene import Camera, Film, Material, RenderSettings
+    from .shading import program as P
+    from .shading.builder import ProgramBuilder
+    from .shading.interpreter import run_program_many
+
+    b = ProgramBuilder("warm-up")
+    position, density = b.alloc(3), b.alloc(1)
+    b.emit("TEXCO", P.TEXCO_OBJECT, position)
+    b.emit("VECTOR_TO_FLOAT", position, density)
+    b.emit("VOLUME_SCATTER", 0, b.const(1.0), b.const([0.8, 0.8, 0.8]), density, b.const(0.0))
+    program = b.build()
+    run_program_many(program.code, program.init, program.tables, np.zeros(program.n_registers),
+                     np.zeros((2, 3, 4)), np.zeros((1, 1, 1, 1), np.float32), np.zeros((3, 4)), np.zeros((1, 3)),
+                     np.zeros((1, 4)), P.R_LOBES, 4)
+    medium = ProgramMedium("warm-up", program, np.eye(4), ([-1, -1, -1], [1, 1, 1]), majorant_resolution=2)
+    camera = np.eye(4)
+    camera[:3, 3] = [0.0, 0.0, 6.0]
+    render(Scene(camera=Camera(camera, fov=0.8), film=Film(4, 4), meshes=[floor, fog],
+                 materials=[Material("floor"), Material("fog", surface="null", medium=0)], media=[medium],
+                 lights=lights, settings=RenderSettings(samples=1, threads=1)))
