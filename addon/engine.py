@@ -11,7 +11,7 @@ import traceback
 import bpy
 import numpy as np
 
-from . import compat
+from . import compat, kernel_status
 
 
 _kernels_ready = False  # volpath_native.warm_up() has run in this Blender session
@@ -105,8 +105,17 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             return True
         from volpath_native import kernel_compile
 
+        if kernel_status.busy():
+            # enabling the add-on started the compile (kernel_status): wait for it; Esc stops
+            # waiting, not the compile
+            def waiting(seconds):
+                self.update_stats("", f"VolPath | Compiling render kernels in the background "
+                                      f"({int(seconds)} s so far; Esc cancels the render)")
+            if not kernel_status.wait(self.cancel_requested, on_wait=waiting):
+                self.update_stats("", "VolPath | cancelled while the render kernels compile")
+                return False
         if not kernel_compile.kernels_cached():
-            # Compiling takes ~100 s and numba cannot be interrupted: compile in a child process
+            # Compiling takes minutes and numba cannot be interrupted: compile in a child process
             # that Esc can kill (kernel_compile); then load what it cached.
             self.update_stats("", "VolPath | Compiling render kernels (first render only; Esc cancels)")
             if kernel_compile.compile_in_child(self.cancel_requested) is False:

@@ -15,7 +15,7 @@ import volpath_native as vp
 
 from .. import compat
 from . import camera as camera_export
-from . import fluid, geometry, grid_media, lights, motion, shading, validate
+from . import fluid, geometry, grid_media, lights, motion, procedural_media, shading, validate
 
 __all__ = ["export_scene", "export_settings", "ExportCancelled"]
 
@@ -83,6 +83,9 @@ def _export(depsgraph, camera_object, reporter, cancel, frame_set):
     validate.close_volume_boundaries(meshes, table.materials, reporter)
     world_datablock = compat.render_world(depsgraph.view_layer, scene)
     world = validate.world_background(shading.export_world(world_datablock, table), world_datablock, reporter)
+    if table.procedural.world_program is not None:  # a varying world volume, boxed around the scene
+        anchors = [camera.camera_to_world[:3, 3]] + [getattr(light, "position", np.zeros(3)) for light in scene_lights]
+        meshes += procedural_media.world_medium_box(table.procedural, meshes, anchors, world_datablock.name_full)
 
     return vp.Scene(camera=camera, film=film, meshes=meshes, materials=table.materials,
                     media=table.media, lights=scene_lights, world=world, settings=export_settings(scene))
@@ -94,6 +97,7 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=
     triangulated: dict = {}  # evaluated mesh data -> LocalMesh (None: no triangles)
     grid_sources = set()  # "volume" / "fluid": grid media exported by _export_grid_media
     material_override = depsgraph.view_layer.material_override
+    budget = validate.MemoryBudget()
     for instance in depsgraph.object_instances:
         if cancel is not None and cancel():
             raise ExportCancelled()
@@ -139,6 +143,7 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=
         else:
             slot_materials = np.array([table.index_of(slot.material) for slot in obj.material_slots]
                                       or [table.index_of(None)], dtype=np.int32)
+        budget.add(obj.name, len(local.triangles))  # SceneError before the memory runs out
         if instance.is_instance:
             parent = instance.parent.name if instance.parent is not None else "instance"
             name = f"{parent}/{obj.name}#{len(meshes)}"

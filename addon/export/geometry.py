@@ -29,7 +29,9 @@ class LocalMesh:
 
 
 def triangulate(obj) -> Optional[LocalMesh]:
-    """The evaluated object's geometry as triangles (None when it has none)."""
+    """The evaluated object's geometry as triangles (None when it has none). Every array is read
+    with one foreach_get into a preallocated array (compat: attribute block copies where Blender
+    has them); only the triangles' corner list goes through the slower loop-triangle collection."""
     mesh = obj.to_mesh()
     try:
         if mesh is None:
@@ -38,21 +40,17 @@ def triangulate(obj) -> Optional[LocalMesh]:
         n_tri = len(mesh.loop_triangles)
         if n_tri == 0:
             return None
-        vertices = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-        mesh.vertices.foreach_get("co", vertices)
-        triangles = np.empty(n_tri * 3, dtype=np.int32)
-        mesh.loop_triangles.foreach_get("vertices", triangles)
-        material_slots = np.empty(n_tri, dtype=np.int32)
-        mesh.loop_triangles.foreach_get("material_index", material_slots)
-        smooth = np.empty(len(mesh.polygons), dtype=bool)
-        mesh.polygons.foreach_get("use_smooth", smooth)
+        tri_loops = np.empty(n_tri * 3, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("loops", tri_loops)
+        triangles = compat.corner_vertices(mesh)[tri_loops].reshape(-1, 3)
+        tri_faces = compat.triangle_faces(mesh, n_tri)
+        material_slots = compat.face_material_indices(mesh)[tri_faces]
+        smooth = compat.face_smooth(mesh)
         corner_normals = None
         if smooth.any() or mesh.has_custom_normals:
             # Corner normals hold the face normal on flat faces (and sharp edges where Cycles splits).
-            loops = np.empty(n_tri * 3, dtype=np.int32)
-            mesh.loop_triangles.foreach_get("loops", loops)
-            corner_normals = compat.corner_normals(mesh, smooth)[loops].reshape(n_tri, 3, 3)
-        return LocalMesh(vertices.reshape(-1, 3), triangles.reshape(-1, 3), material_slots, corner_normals)
+            corner_normals = compat.triangle_corner_normals(mesh, smooth, tri_loops, tri_faces, triangles)
+        return LocalMesh(compat.mesh_positions(mesh), triangles, material_slots, corner_normals)
     finally:
         obj.to_mesh_clear()
 
@@ -60,13 +58,14 @@ def triangulate(obj) -> Optional[LocalMesh]:
 def to_world(name: str, local: LocalMesh, matrix_world: np.ndarray, slot_materials: np.ndarray) -> vp.Mesh:
     """Place a LocalMesh in the world; slot_materials maps slot index -> Scene.materials index."""
     linear = matrix_world[:3, :3]
-    vertices = local.vertices.astype(np.float64) @ linear.T + matrix_world[:3, 3]
+    vertices = local.vertices.astype(np.float64) @ linear.T + matrix_world[:3, 3]  # per vertex, not corner
     triangles = local.triangles
     corner_normals = local.corner_normals
-    if corner_normals is not None:
-        # Normals transform with the inverse transpose: n_world = n @ inverse(linear).
-        normals = corner_normals.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(linear)
-        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+    if corner_normals is not None and not np.array_equal(linear, np.eye(3)):
+        # Normals transform with the inverse transpose: n_world = n @ inverse(linear); in float32
+        # (Cycles' normals are floats), without a float64 copy of every corner.
+        normals = corner_normals.reshape(-1, 3) @ np.linalg.inv(linear).astype(np.float32)
+        normals /= np.maximum(np.sqrt(np.einsum("ij,ij->i", normals, normals)), 1e-30)[:, None]
         corner_normals = normals.reshape(-1, 3, 3)
     if np.linalg.det(linear) < 0.0:
         # A mirroring transform flips the winding: swap two corners to keep normals outward.

@@ -201,6 +201,26 @@ class Material:
 # ----------------------------------------------------------------------------------------------
 # Geometry
 # ----------------------------------------------------------------------------------------------
+TRIANGLE_CHUNK = 1 << 18  # triangles per block of array work: temporaries of a few MB
+
+
+def triangle_cross(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(k, 3) float64 (p1 - p0) x (p2 - p0) of triangles (k, 3) into vertices (V, 3)."""
+    p0 = vertices[triangles[:, 0]].astype(np.float64)
+    e1 = vertices[triangles[:, 1]] - p0
+    e2 = vertices[triangles[:, 2]] - p0
+    return np.cross(e1, e2)
+
+
+def doubled_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(T,) float64 twice the area of each triangle, in chunks (no (T, 3, 3) float64 temporary)."""
+    out = np.empty(len(triangles))
+    for lo in range(0, len(triangles), TRIANGLE_CHUNK):
+        cross = triangle_cross(vertices, triangles[lo:lo + TRIANGLE_CHUNK])
+        out[lo:lo + len(cross)] = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+    return out
+
+
 @dataclass
 class Mesh:
     """A triangle mesh in world space.
@@ -239,9 +259,7 @@ class Mesh:
             raise SceneError(f"mesh '{self.name}': corner_normals must have shape ({n_tri}, 3, 3)")
         warnings = []
         if n_tri:
-            v = self.vertices[self.triangles].astype(np.float64)
-            area2 = np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
-            n_degenerate = int(np.count_nonzero(area2 <= 1e-20))
+            n_degenerate = int(np.count_nonzero(doubled_areas(self.vertices, self.triangles) <= 1e-20))
             if n_degenerate:
                 warnings.append(f"mesh '{self.name}': {n_degenerate} degenerate triangles ignored")
         return warnings
