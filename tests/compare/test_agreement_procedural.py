@@ -32,7 +32,7 @@ def test_a_five_percent_density_error_fails(registered_addon):
     scene = height_fog.build(resolution=RESOLUTION, samples=SAMPLES)
     native_scene, warnings = volpath_engine.export(scene, RESOLUTION)
     assert not warnings, warnings
-    per_run = SAMPLES // RUNS
+    per_run = 4 * SAMPLES // RUNS  # 4x the suite's samples: the error is ~1-2 % of the fog's pixels
     correct = volpath_engine.render_runs(native_scene, runs=RUNS, samples=per_run, base_seed=1)
     (index, medium), = [(i, m) for i, m in enumerate(native_scene.media) if isinstance(m, ProgramMedium)]
     program = medium.program
