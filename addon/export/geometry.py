@@ -26,10 +26,13 @@ class LocalMesh:
     triangles: np.ndarray  # (T, 3) int32
     material_slots: np.ndarray  # (T,) int32
     corner_normals: Optional[np.ndarray]  # (T, 3, 3) float32 or None (flat)
+    corner_attributes: dict = None  # name -> (T, 3, k) float32, object space (corner_attribute_arrays)
+    generated: Optional[np.ndarray] = None  # (3, 4) object -> Generated texture space
 
 
-def triangulate(obj) -> Optional[LocalMesh]:
-    """The evaluated object's geometry as triangles (None when it has none)."""
+def triangulate(obj, requests=frozenset(), reporter=None) -> Optional[LocalMesh]:
+    """The evaluated object's geometry as triangles (None when it has none); `requests` names the
+    per-corner attributes surface programs read (volpath_native.surface_programs)."""
     mesh = obj.to_mesh()
     try:
         if mesh is None:
@@ -52,7 +55,14 @@ def triangulate(obj) -> Optional[LocalMesh]:
             loops = np.empty(n_tri * 3, dtype=np.int32)
             mesh.loop_triangles.foreach_get("loops", loops)
             corner_normals = compat.corner_normals(mesh, smooth)[loops].reshape(n_tri, 3, 3)
-        return LocalMesh(vertices.reshape(-1, 3), triangles.reshape(-1, 3), material_slots, corner_normals)
+        attributes = {}
+        if requests:
+            from .corner_attributes import corner_attribute_arrays
+            attributes = corner_attribute_arrays(obj, mesh, requests, reporter)
+        from .procedural_media import generated_transform
+        generated = generated_transform(obj, vertices.reshape(-1, 3))
+        return LocalMesh(vertices.reshape(-1, 3), triangles.reshape(-1, 3), material_slots, corner_normals,
+                         attributes, np.asarray(generated, np.float64).reshape(3, 4))
     finally:
         obj.to_mesh_clear()
 
@@ -68,12 +78,18 @@ def to_world(name: str, local: LocalMesh, matrix_world: np.ndarray, slot_materia
         normals = corner_normals.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(linear)
         normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
         corner_normals = normals.reshape(-1, 3, 3)
+    attributes = dict(local.corner_attributes or {})
     if np.linalg.det(linear) < 0.0:
         # A mirroring transform flips the winding: swap two corners to keep normals outward.
         triangles = triangles[:, [0, 2, 1]]
         if corner_normals is not None:
             corner_normals = corner_normals[:, [0, 2, 1]]
+        attributes = {name: values[:, [0, 2, 1]] for name, values in attributes.items()}
+    frame = None
+    if local.generated is not None:
+        frame = np.stack([np.linalg.inv(matrix_world)[:3], local.generated])
     # Blender clamps out-of-range material indices to the last slot.
     slots = np.clip(local.material_slots, 0, len(slot_materials) - 1)
     return vp.Mesh(name=name, vertices=vertices, triangles=triangles,
-                   material_ids=slot_materials[slots], corner_normals=corner_normals)
+                   material_ids=slot_materials[slots], corner_normals=corner_normals, corner_attributes=attributes,
+                   object_frame=frame)

@@ -12,6 +12,7 @@ import numpy as np
 import volpath_native as vp
 from volpath_native.program_medium import ProgramMedium
 from volpath_native.shading import program as P
+from volpath_native.shading.images import empty_image_table
 from volpath_native.shading.interpreter import run_program_many
 
 
@@ -41,7 +42,7 @@ def phase_of(program, frame: np.ndarray, point: np.ndarray, label: str, reporter
     out = np.zeros((1, P.MAX_LOBES * P.LOBE_STRIDE))
     run_program_many(program.code, program.init, program.tables, regs, np.ascontiguousarray(frame),
                      np.zeros((1, 1, 1, 1), np.float32), np.zeros((3, 4)), point.reshape(1, 3), out, P.R_LOBES,
-                     out.shape[1])
+                     out.shape[1], empty_image_table())
     lobes = out[0].reshape(P.MAX_LOBES, P.LOBE_STRIDE)
     weights, gs = lobes[:, :3].mean(axis=1), lobes[:, 3]
     used = weights > 0

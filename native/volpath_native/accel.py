@@ -28,6 +28,8 @@ class Accelerator:
 
     def __init__(self, meshes: list[Mesh]):
         verts, tris, mats, mesh_ids, corner_normals = [], [], [], [], []
+        self._meshes = list(meshes)
+        self._keep = []  # per mesh: the triangles kept (non-degenerate), in order
         base = 0
         for mesh_index, mesh in enumerate(meshes):
             v = mesh.vertices.astype(np.float64)
@@ -36,6 +38,7 @@ class Accelerator:
                 p = v[t]
                 area2 = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
                 keep = area2 > 1e-20  # degenerate triangles are dropped (Scene.validate warns)
+                self._keep.append(keep)
                 t = t[keep]
                 verts.append(mesh.vertices)
                 tris.append(t + base)
@@ -78,6 +81,39 @@ class Accelerator:
             from embreex.mesh_construction import TriangleMesh
             self._embree = rtcore_scene.EmbreeScene()
             TriangleMesh(self._embree, self.vertices, self.triangles)
+
+    def corner_attributes(self, names) -> tuple:
+        """(T, 3, C) float32 per-corner values of the named attributes for every kept triangle, and
+        {name: (first channel, width)}; meshes without an attribute read 0."""
+        widths = {}
+        for name in names:
+            widths[name] = max([m.corner_attributes[name].shape[2] for m in self._meshes
+                                if name in m.corner_attributes] or [0])
+        channels, offset = {}, 0
+        for name in names:
+            if widths[name]:
+                channels[name] = (offset, widths[name])
+                offset += widths[name]
+        table = np.zeros((max(self.triangle_count, 1), 3, max(offset, 1)), np.float32)
+        row = 0
+        keeps = iter(self._keep)
+        for mesh in self._meshes:
+            if not len(mesh.triangles):
+                continue
+            keep = next(keeps)
+            n = int(keep.sum())
+            for name, (first, width) in channels.items():
+                values = mesh.corner_attributes.get(name)
+                if values is not None:
+                    table[row:row + n, :, first:first + values.shape[2]] = values[keep]
+            row += n
+        return table, channels
+
+    def mesh_frames(self) -> np.ndarray:
+        """(n_meshes, 2, 3, 4) world -> object and object -> Generated maps per mesh (Mesh.frame)."""
+        if not self._meshes:
+            return np.zeros((1, 2, 3, 4))
+        return np.ascontiguousarray(np.stack([m.frame() for m in self._meshes]), dtype=np.float64)
 
     @property
     def triangle_count(self) -> int:

@@ -1,0 +1,73 @@
+"""Surface programs end to end in the renderer: a textured plane under a uniform white sky returns
+exactly its albedo (a diffuse surface lit by radiance 1 from its whole hemisphere), so each pixel
+must equal the texel the UV map puts under it -- the image's orientation, the per-corner UV
+interpolation, the binding to Base Color and the sRGB decoding are all checked texel by texel.
+The same image with the v axis flipped (a planted error) must fail."""
+import numpy as np
+import pytest
+
+from volpath_native import Camera, Film, Material, Mesh, RenderSettings, Scene, World, render
+from volpath_native.bsdfs.nodes import SurfaceNode
+from volpath_native.shading import program as P
+from volpath_native.shading.builder import ProgramBuilder
+from volpath_native.shading.images import EXT_REPEAT, INTERP_CLOSEST, Image
+from volpath_native.surface_programs import SurfaceProgram
+
+N = 4  # image and film resolution
+
+
+def _texels():
+    rng = np.random.default_rng(7)
+    return rng.integers(20, 235, size=(N, N, 4), dtype=np.uint8) | np.uint8(1)
+
+
+def _srgb(c):
+    c = c / 255.0
+    return np.where(c < 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def _textured_plane(texels, flip_v=False, field="color", kind="diffuse"):
+    b = ProgramBuilder("textured plane")
+    uv = b.alloc(3)
+    b.emit("TEXCO", P.TEXCO_UV, uv)
+    color, alpha = b.alloc(3), b.alloc()
+    b.emit("IMAGE_TEXTURE", 0, 0, 0, INTERP_CLOSEST, EXT_REPEAT, 0, 0, uv, color, alpha)
+    program = SurfaceProgram(b.build(), bindings=[(0, field, color if field == "color" else color + 1)])
+    v = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float)
+    uvs = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+    if flip_v:
+        uvs[:, 1] = 1 - uvs[:, 1]
+    tris = np.array([[0, 1, 2], [0, 2, 3]])
+    mesh = Mesh("plane", v, tris, np.zeros(2, int), corner_attributes={"uv:": uvs[tris]})
+    camera = np.eye(4)
+    camera[2, 3] = 5.0
+    material = Material("textured", surface_nodes=[SurfaceNode.for_kind(kind)], surface_program=program)
+    return Scene(camera=Camera(camera, projection="orthographic", ortho_scale=2.0),
+                 film=Film(N, N, filter="box", filter_width=1.0), meshes=[mesh], materials=[material],
+                 world=World(background=np.ones(3)), images=[Image("texels", texels, compress_as_srgb=True)],
+                 settings=RenderSettings(samples=4, seed=3, threads=1))
+
+
+def _expected(texels):
+    # film row 0 is the top of the frame: image row N - 1 (Image rows start at the bottom)
+    return _srgb(texels[::-1, :, :3].astype(np.float64))
+
+
+def test_textured_plane_shows_each_texel():
+    texels = _texels()
+    result = render(_textured_plane(texels))
+    assert np.allclose(result.image[..., :3], _expected(texels), rtol=1e-5, atol=1e-6)
+
+
+def test_flipped_uv_is_caught():
+    texels = _texels()
+    result = render(_textured_plane(texels, flip_v=True))
+    assert not np.allclose(result.image[..., :3], _expected(texels), rtol=1e-3, atol=1e-3)
+
+
+def test_mesh_without_uv_reads_uv_zero():
+    texels = _texels()
+    scene = _textured_plane(texels)
+    scene.meshes[0].corner_attributes = {}
+    result = render(scene)
+    assert np.allclose(result.image[..., :3], _srgb(texels[0, 0, :3].astype(np.float64)), rtol=1e-5)
