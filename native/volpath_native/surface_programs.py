@@ -30,7 +30,7 @@ from .bsdfs.nodes import FLOAT_FIELDS, RGB_FIELDS, SurfaceNode, surface_node_tab
 from .jit import inline_stage_kernel, stage_kernel
 from .shading.images import empty_image_table
 from .shading.interpreter import run_program
-from .shading.program import R_BACKFACING, R_I, R_N, R_NG, R_UV, ShaderProgram
+from .shading.program import OPS, R_BACKFACING, R_I, R_N, R_NG, R_UV, ShaderProgram
 
 #: the SurfaceNode fields a program may drive, by binding code
 BIND_FIELDS = tuple(FLOAT_FIELDS) + tuple(RGB_FIELDS)
@@ -78,6 +78,27 @@ class SurfaceProgram:
                 raise ValueError(f"{where}: bad attribute input {name!r} ({width} at {register})")
         if self.normal != -1 and not 0 <= int(self.normal) <= regs - 3:
             raise ValueError(f"{where}: normal register {self.normal} outside the {regs} registers")
+        self._check_literals(where)
+
+    def _check_literals(self, where: str) -> None:
+        """Literal operands of the surface opcodes (the interpreter trusts them): tile tables
+        inside the program's tables, enums in range."""
+        code, tables = self.program.code, self.program.tables
+        by_code = {spec.code: (name, spec) for name, spec in OPS.items()}
+        pc = 0
+        while pc < len(code):
+            name, spec = by_code[int(code[pc])]
+            operands = [int(v) for v in code[pc + 1:pc + 1 + len(spec.operands)]]
+            if name == "IMAGE_TEXTURE":
+                _, tiles, count, interpolation, extension, projection, _unassociate = operands[:7]
+                if count < 0 or (count and not 0 <= tiles <= len(tables) - 2 * count):
+                    raise ValueError(f"{where}: image tile table {tiles} + {count} tiles outside the program's tables")
+                if not (0 <= interpolation <= 2 and 0 <= extension <= 3 and projection in (0, 2, 3)):
+                    raise ValueError(f"{where}: image texture options {interpolation}, {extension}, {projection} "
+                                     "out of range")
+            elif name == "NORMAL_MAP" and not 0 <= operands[0] <= 4:
+                raise ValueError(f"{where}: normal map space {operands[0]} out of range")
+            pc += 1 + len(spec.operands)
 
     def drives(self, nodes: list) -> set:
         """{(node kind, field)} this program drives."""

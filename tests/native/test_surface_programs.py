@@ -71,3 +71,61 @@ def test_mesh_without_uv_reads_uv_zero():
     scene.meshes[0].corner_attributes = {}
     result = render(scene)
     assert np.allclose(result.image[..., :3], _srgb(texels[0, 0, :3].astype(np.float64)), rtol=1e-5)
+
+
+def test_vpscene_round_trip(tmp_path):
+    from volpath_native import load_scene, save_scene
+
+    scene = _textured_plane(_texels())
+    loaded = load_scene(save_scene(scene, tmp_path / "textured.vpscene"))
+    np.testing.assert_array_equal(loaded.images[0].pixels, scene.images[0].pixels)
+    assert loaded.images[0].compress_as_srgb
+    program, original = loaded.materials[0].surface_program, scene.materials[0].surface_program
+    np.testing.assert_array_equal(program.program.code, original.program.code)
+    assert program.bindings == original.bindings
+    np.testing.assert_array_equal(loaded.meshes[0].corner_attributes["uv:"], scene.meshes[0].corner_attributes["uv:"])
+
+
+def _normal_map(colour, tangent, sign, normal, strength=1.0, backfacing=0.0, space=0, frame=None):
+    from volpath_native.shading.images import empty_image_table
+    from volpath_native.shading.interpreter import run_program_many
+
+    b = ProgramBuilder("normal map")
+    c, t, out = b.const(list(colour)), b.alloc(4), b.alloc(3)
+    b.init[t:t + 4] = list(tangent) + [sign]
+    b.init[P.R_N:P.R_N + 3] = list(normal)
+    b.init[P.R_BACKFACING] = backfacing
+    b.emit("NORMAL_MAP", space, b.const(strength), c, t, t + 3, P.R_N, out)
+    program = b.build()
+    result = np.zeros((1, 3))
+    frame = np.stack([np.eye(4)[:3], np.eye(4)[:3]]) if frame is None else frame
+    run_program_many(program.code, program.init, program.tables, np.zeros(program.n_registers),
+                     np.ascontiguousarray(frame), np.zeros((1, 1, 1, 1), np.float32), np.zeros((3, 4)),
+                     np.zeros((1, 3)), result, out, 3, empty_image_table())
+    return result[0]
+
+
+def test_normal_map_tangent_space():
+    """svm_node_normal_map by hand: N' = normalize(c.x T + c.y B + c.z N), B = sign N x T."""
+    n, t = (0.0, 0.0, 1.0), (1.0, 0.0, 0.0)
+    assert _normal_map((0.5, 0.5, 1.0), t, 1.0, n) == pytest.approx([0, 0, 1])  # the flat colour
+    c = (0.8, 0.3, 0.9)
+    x, y, z = 2 * (np.array(c) - 0.5)
+    expected = np.array([x, y, z]) / np.linalg.norm([x, y, z])  # B = z x x = +y
+    assert _normal_map(c, t, 1.0, n) == pytest.approx(expected, abs=1e-12)
+    flipped = np.array([x, -y, z]) / np.linalg.norm([x, y, z])  # sign -1 flips the bitangent
+    assert _normal_map(c, t, -1.0, n) == pytest.approx(flipped, abs=1e-12)
+    # strength 0.5: xy halved, z = mix(1, z, 0.5)
+    half = np.array([0.5 * x, 0.5 * y, 0.5 + 0.5 * z])
+    assert _normal_map(c, t, 1.0, n, strength=0.5) == pytest.approx(half / np.linalg.norm(half), abs=1e-12)
+    # back face: computed for the unflipped normal, then flipped
+    assert _normal_map(c, t, 1.0, (0.0, 0.0, -1.0), backfacing=1.0) == pytest.approx(-expected, abs=1e-12)
+    # no tangent (no UV map): the unperturbed normal
+    assert _normal_map(c, (0.0, 0.0, 0.0), 1.0, n) == pytest.approx([0, 0, 1])
+    # object space through a rotated object: object_normal_transform of the decoded colour
+    rotation = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # 90 deg about z
+    world_to_object = np.zeros((3, 4))
+    world_to_object[:, :3] = rotation.T
+    frame = np.stack([world_to_object, np.eye(4)[:3]])
+    obj = _normal_map(c, t, 1.0, n, space=1, frame=frame)
+    assert obj == pytest.approx(rotation @ np.array([x, y, z]) / np.linalg.norm([x, y, z]), abs=1e-12)
