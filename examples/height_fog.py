@@ -10,15 +10,15 @@ from examples import scene_builder as sb
 
 
 def height_fog_material(name="Height Fog", bottom_density=1.2, top_density=0.0, color=(0.9, 0.9, 0.9)):
-    """Density = Map Range(Object Z, -1 .. 1 -> bottom .. top), clamped, times 1 (Principled Volume)."""
+    """Density = Map Range(Object Z, 0 .. 2 -> bottom .. top), clamped (Principled Volume)."""
     material = sb.principled_volume_material(name, density=1.0, color=color)
     nodes, links = material.node_tree.nodes, material.node_tree.links
     volume = next(n for n in nodes if n.type == "PRINCIPLED_VOLUME")
     coords = nodes.new("ShaderNodeTexCoord")
     separate = nodes.new("ShaderNodeSeparateXYZ")
     map_range = nodes.new("ShaderNodeMapRange")
-    map_range.inputs["From Min"].default_value = -1.0
-    map_range.inputs["From Max"].default_value = 1.0
+    map_range.inputs["From Min"].default_value = 0.0
+    map_range.inputs["From Max"].default_value = 2.0
     map_range.inputs["To Min"].default_value = bottom_density
     map_range.inputs["To Max"].default_value = top_density
     links.new(coords.outputs["Object"], separate.inputs["Vector"])

@@ -19,6 +19,8 @@ from typing import Optional
 import numpy as np
 
 from volpath_native.grid_medium import GridMedium, blackbody_emission, principled_volume_coefficients
+from volpath_native.program_medium import ProgramMedium
+from volpath_native.scene import SceneError
 
 from ..compat import material_node_tree
 
@@ -127,10 +129,95 @@ def principled_volume_inputs(material, warnings: list, label: str) -> dict:
     return values
 
 
+def _volume_output(material):
+    node_tree = material_node_tree(material)
+    if node_tree is None:
+        return None
+    outputs = [n for n in node_tree.nodes
+               if n.bl_idname == "ShaderNodeOutputMaterial" and n.target in ("ALL", "CYCLES")]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    return output.inputs.get("Volume") if output is not None else None
+
+
+def needs_program(material) -> bool:
+    """Whether the material's volume is more than a Principled Volume reading grid attributes (and
+    an Attribute node feeding Emission Strength): then its nodes are compiled to a shader program."""
+    socket = _volume_output(material) if material is not None else None
+    if socket is None or not socket.is_linked:
+        return False
+    node = socket.links[0].from_node
+    if node.bl_idname != "ShaderNodeVolumePrincipled":
+        return True
+    return any(s.is_linked and not (s.name == "Emission Strength" and _attribute_source(s))
+               for s in node.inputs if s.name in PRINCIPLED_DEFAULTS)
+
+
+class _ListReporter:
+    def __init__(self, warnings: list):
+        self.warnings = warnings
+
+    def warn(self, message: str):
+        if message not in self.warnings:
+            self.warnings.append(message)
+
+
+def program_medium_from_volume(exported: ExportedVolume, warnings: list) -> Optional[ProgramMedium]:
+    """A ProgramMedium for a Volume object whose material computes its medium with nodes: the
+    program reads the object's grids as attributes (trilinear, 0 outside; the expectation of Cycles'
+    stochastic lookups only where the nodes are linear in them), in the density grid's padded box;
+    Generated is raw object space, as Cycles 5.0 gives volume geometry no texture-space transform."""
+    from .procedural_media import phase_of
+    from .shader_compiler import ShaderCompiler
+
+    label = exported.label
+    program = ShaderCompiler(f"{label} (material '{exported.material.name}')", _ListReporter(warnings),
+                             attributes=set(exported.grids)).compile_volume(_volume_output(exported.material),
+                                                                            weight=exported.density_factor)
+    reference = exported.grids.get("density") or next(iter(exported.grids.values()), None)
+    if reference is None:
+        warnings.append(f"{label}: no grids; skipped")
+        return None
+    shape = reference.data.shape[:3]
+    channels = []
+    for name, width in program.attributes:
+        grid = exported.grids.get(name)
+        data = None if grid is None else grid.data
+        if data is not None and (data.shape[:3] != shape or not np.allclose(grid.index_to_world, reference.index_to_world)):
+            warnings.append(f"{label}: grid '{name}' is not on the '{reference.name}' grid's voxels; read as 0")
+            data = None
+        if data is None:
+            data = np.zeros(shape + ((width,) if width > 1 else ()), np.float32)
+        data = data.reshape(shape + (-1,))
+        channels.append(np.repeat(data, width, axis=3) if data.shape[3] == 1 and width > 1 else data[..., :width])
+    stacked = np.concatenate(channels, axis=3) if channels else np.zeros(shape + (1,), np.float32)
+    # zero padding, one voxel below and two above (GridMedium's box = Cycles' volume bounds)
+    attributes = np.zeros(tuple(np.add(shape, 3)) + (stacked.shape[3],), np.float32)
+    attributes[1:-2, 1:-2, 1:-2] = np.nan_to_num(stacked, nan=0.0, posinf=0.0, neginf=0.0)
+    shift = np.eye(4)
+    shift[:3, 3] = -1.0
+    index_to_world = reference.index_to_world @ shift
+    box = np.random.default_rng(0).random((256, 3)) * (np.array(attributes.shape[:3]) - 1)
+    samples = box @ index_to_world[:3, :3].T + index_to_world[:3, 3]
+    frame = np.stack([np.linalg.inv(exported.object_to_world)[:3], np.eye(4)[:3]])
+    g = phase_of(program, frame, samples, label, _ListReporter(warnings), attributes,
+                 np.linalg.inv(index_to_world))
+    try:
+        medium = ProgramMedium(exported.object_name, program, exported.object_to_world, (np.zeros(3), np.zeros(3)),
+                               np.eye(4)[:3], attributes=attributes, grid_index_to_world=index_to_world, g=g)
+    except SceneError as error:
+        warnings.append(f"{label}: {error}; skipped")
+        return None
+    warnings.extend(medium.warnings())
+    return medium
+
+
 def grid_medium_from_volume(exported: ExportedVolume, warnings: list, **medium_kwargs) -> Optional[GridMedium]:
     """A GridMedium for an exported Volume object and its material, with Cycles' conversions:
     density x density grid, Color x colour grid, the object's density factor
-    (kernel/svm/closure.h svm_node_principled_volume; scene/object.cpp object_volume_density)."""
+    (kernel/svm/closure.h svm_node_principled_volume; scene/object.cpp object_volume_density).
+    Materials whose volume is computed by other nodes become a ProgramMedium instead."""
+    if exported.material is not None and needs_program(exported.material):
+        return program_medium_from_volume(exported, warnings)
     label = exported.label
     inputs = principled_volume_inputs(exported.material, warnings, label)
     density_name = inputs["Density Attribute"]

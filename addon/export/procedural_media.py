@@ -35,23 +35,27 @@ def generated_transform(obj, vertices: np.ndarray) -> np.ndarray:
     return out
 
 
-def phase_of(program, frame: np.ndarray, point: np.ndarray, label: str, reporter) -> float:
-    """The anisotropy of the program's scattering closures, read at one point (the medium's phase
-    function is constant: a varying or mixed anisotropy is warned about)."""
+def phase_of(program, frame: np.ndarray, points: np.ndarray, label: str, reporter, attributes=None,
+             world_to_index=None) -> float:
+    """The anisotropy of the program's scattering closures, read where they scatter among `points`
+    (the medium's phase function is constant: a varying or mixed anisotropy is warned about)."""
+    points = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
     regs = np.zeros(program.n_registers)
-    out = np.zeros((1, P.MAX_LOBES * P.LOBE_STRIDE))
-    run_program_many(program.code, program.init, program.tables, regs, np.ascontiguousarray(frame),
-                     np.zeros((1, 1, 1, 1), np.float32), np.zeros((3, 4)), point.reshape(1, 3), out, P.R_LOBES,
-                     out.shape[1], empty_image_table())
-    lobes = out[0].reshape(P.MAX_LOBES, P.LOBE_STRIDE)
-    weights, gs = lobes[:, :3].mean(axis=1), lobes[:, 3]
+    out = np.zeros((len(points), P.MAX_LOBES * P.LOBE_STRIDE))
+    attributes = np.zeros((1, 1, 1, 1), np.float32) if attributes is None else attributes
+    world_to_index = np.zeros((3, 4)) if world_to_index is None else np.ascontiguousarray(world_to_index[:3])
+    run_program_many(program.code, program.init, program.tables, regs, np.ascontiguousarray(frame), attributes,
+                     world_to_index, points, out, P.R_LOBES, out.shape[1], empty_image_table())
+    lobes = out.reshape(len(points), P.MAX_LOBES, P.LOBE_STRIDE)
+    weights, gs = lobes[..., :3].mean(axis=2).ravel(), lobes[..., 3].ravel()
     used = weights > 0
     if not used.any():
         return 0.0
-    if len(set(np.round(gs[used], 6))) > 1:
-        reporter.warn(f"{label}: scattering shaders with different anisotropy in a varying volume are rendered "
-                      f"with their mean anisotropy {float(np.average(gs[used], weights=weights[used])):.3g}")
-    return float(np.average(gs[used], weights=weights[used]))
+    mean = float(np.average(gs[used], weights=weights[used]))
+    if np.ptp(gs[used]) > 1e-6:
+        reporter.warn(f"{label}: the anisotropy of its volume varies over space or between its scattering "
+                      f"shaders; rendered with the mean anisotropy {mean:.3g}")
+    return mean
 
 
 class ProceduralMedia:
@@ -85,9 +89,9 @@ class ProceduralMedia:
         generated = generated_transform(obj, vertices)
         lo, hi = vertices.min(axis=0).astype(np.float64), vertices.max(axis=0).astype(np.float64)
         world_to_object = np.linalg.inv(matrix)[:3]
-        centre = matrix[:3, :3] @ ((lo + hi) / 2.0) + matrix[:3, 3]
-        g = phase_of(program, np.stack([world_to_object, generated]), centre, f"material '{material.name}'",
-                     table.reporter)
+        local = lo + (hi - lo) * np.random.default_rng(0).random((64, 3))
+        g = phase_of(program, np.stack([world_to_object, generated]), local @ matrix[:3, :3].T + matrix[:3, 3],
+                     f"material '{material.name}'", table.reporter)
         try:
             medium = ProgramMedium(label, program, matrix, (lo, hi), generated, g=g)
         except vp.SceneError as error:

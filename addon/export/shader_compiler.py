@@ -218,9 +218,10 @@ class ShaderCompiler:
     # ------------------------------------------------------------------------------------------
     # Volume closures
     # ------------------------------------------------------------------------------------------
-    def compile_volume(self, socket):
-        """The program of the closures feeding a Volume output socket (ShaderProgram)."""
-        self._volume(socket, self.const(1.0))
+    def compile_volume(self, socket, weight: float = 1.0):
+        """The program of the closures feeding a Volume output socket (ShaderProgram); weight scales
+        every closure (Cycles' object_volume_density for Volume objects, 1 for meshes)."""
+        self._volume(socket, self.const(float(weight)))
         return self.builder.build()
 
     def _volume(self, socket, weight: int):

@@ -101,7 +101,7 @@ class ProgramMedium(GridMedium):
 
     def __init__(self, name: str, program: ShaderProgram, object_to_world, bounds, object_to_generated=None,
                  *, g: float = 0.0, attributes=None, majorant_resolution: int = DEFAULT_MAJORANT_RESOLUTION,
-                 debug: bool = False):
+                 grid_index_to_world=None, debug: bool = False):
         self.name = name
         self.program = program
         program.validate()
@@ -119,21 +119,29 @@ class ProgramMedium(GridMedium):
         self.bounds = (lo - pad, hi + pad)
         resolution = max(int(majorant_resolution), 1)
         self.majorant_resolution = resolution
-        # Index space [0, R] per axis spans the box; the majorant has one cell per index unit.
-        box_to_object = np.eye(4)
-        box_to_object[:3, :3] = np.diag((self.bounds[1] - self.bounds[0]) / resolution)
-        box_to_object[:3, 3] = self.bounds[0]
-        self.index_to_world = self.object_to_world @ box_to_object
+        n_channels = sum(width for _, width in program.attributes)
+        self.grid_index_to_world = None
+        if grid_index_to_world is not None:
+            # A Volume object: the box is its grids' padded index box [0, n - 1] (attributes are
+            # given padded, one zero voxel below and two above, as GridMedium pads its grids).
+            self.grid_index_to_world = np.asarray(grid_index_to_world, dtype=np.float64).reshape(4, 4)
+            self.index_to_world = self.grid_index_to_world
+            self.shape = np.array(np.asarray(attributes).shape[:3], dtype=np.int64)
+        else:
+            # Index space [0, R] per axis spans the object's box.
+            box_to_object = np.eye(4)
+            box_to_object[:3, :3] = np.diag((self.bounds[1] - self.bounds[0]) / resolution)
+            box_to_object[:3, 3] = self.bounds[0]
+            self.index_to_world = self.object_to_world @ box_to_object
+            self.shape = np.full(3, resolution + 1, dtype=np.int64)
         self.source_index_to_world = self.index_to_world
         self.world_to_index = np.linalg.inv(self.index_to_world)
-        self.shape = np.full(3, resolution + 1, dtype=np.int64)
         self.density = np.zeros((2, 2, 2), np.float32)  # unused: the program gives the coefficients
         self.scatter_grid = self.absorb_grid = self.emission_grid = None
         self.sigma_s = self.sigma_a = self.emission = np.zeros(3)
         world_to_object = np.linalg.inv(self.object_to_world)[:3]
         generated = np.eye(4)[:3] if object_to_generated is None else np.asarray(object_to_generated, np.float64)
         self.frame = np.ascontiguousarray(np.stack([world_to_object, generated.reshape(3, 4)]), dtype=np.float64)
-        n_channels = sum(width for _, width in program.attributes)
         if attributes is None:
             attributes = np.zeros((1, 1, 1, max(n_channels, 1)), np.float32)
         self.attributes = np.ascontiguousarray(attributes, dtype=np.float32)
@@ -157,31 +165,34 @@ class ProgramMedium(GridMedium):
 
     def _build_majorant_grid(self, resolution: int):
         """Sampled per-cell maxima, dilated by one cell, with a margin and a floor (module docstring)."""
-        shape = (resolution,) * 3
+        extent = self.shape - 1
+        shape = tuple(int(v) for v in np.minimum(resolution, np.maximum(extent, 1)))
+        cells = extent / np.array(shape, dtype=np.float64)  # index units per majorant cell
         max_extinction, max_emission = np.zeros(shape), np.zeros(shape)
         bad = np.zeros(1, np.int64)
         p = self.program
         _cell_extrema(p.code, p.init, p.tables, self._registers, self.frame, self.attributes,
                       np.ascontiguousarray(self.world_to_index[:3]), np.ascontiguousarray(self.index_to_world[:3]),
-                      np.ones(3), SAMPLES_PER_CELL_AXIS, seed_key(0x5EED), max_extinction, max_emission, bad,
+                      cells, SAMPLES_PER_CELL_AXIS, seed_key(0x5EED), max_extinction, max_emission, bad,
                       self.images)
         self.invalid_evaluations = int(bad[0])
         # the largest value of the cell and its 26 neighbours (a separable 3x3x3 max filter)
         dilated = max_extinction
         for axis in range(3):
+            n = shape[axis]
             padded = np.pad(dilated, [(1, 1) if a == axis else (0, 0) for a in range(3)])
-            dilated = np.maximum(np.maximum(np.take(padded, range(0, resolution), axis=axis),
-                                            np.take(padded, range(1, resolution + 1), axis=axis)),
-                                 np.take(padded, range(2, resolution + 2), axis=axis))
+            dilated = np.maximum(np.maximum(np.take(padded, range(0, n), axis=axis),
+                                            np.take(padded, range(1, n + 1), axis=axis)),
+                                 np.take(padded, range(2, n + 2), axis=axis))
         peak = float(dilated.max())
         majorant = np.maximum(dilated * MAJORANT_MARGIN, MAJORANT_FLOOR * peak)
         emissive = max_emission > 0.0
         if emissive.any():
             # emission is collected at tentative collisions: a few per cell crossing where it glows
-            world_cell = np.linalg.norm(self.index_to_world[:3, :3], axis=0).min()
+            world_cell = np.linalg.norm(self.index_to_world[:3, :3] * cells[None, :], axis=0).min()
             majorant = np.where(emissive, np.maximum(majorant, 4.0 / world_cell), majorant)
         self.majorant_shape = np.array(shape, dtype=np.int64)
-        self.cell_size = np.ones(3)
+        self.cell_size = cells
         self.majorant_grid = majorant.astype(np.float64)
         self.majorant_density = self.majorant_grid
         self.majorant_rgb = np.repeat(self.majorant_grid[..., None], 3, axis=-1)
@@ -209,7 +220,10 @@ class ProgramMedium(GridMedium):
                 "collisions through its procedural density and were treated as opaque")
 
     def boundary_mesh(self, material_id: int):
-        raise SceneError(f"program medium '{self.name}' is bounded by its own mesh")
+        """Volume objects: the box of their grids, as GridMedium; meshes bound their own medium."""
+        if self.grid_index_to_world is None:
+            raise SceneError(f"program medium '{self.name}' is bounded by its own mesh")
+        return super().boundary_mesh(material_id)
 
     def to_record(self):
         p = self.program
@@ -218,6 +232,8 @@ class ProgramMedium(GridMedium):
                   "object_to_generated": self.frame[1].tolist(), "majorant_resolution": self.majorant_resolution,
                   "program_name": p.name, "program_varying": bool(p.varying),
                   "program_attributes": [[n, int(w)] for n, w in p.attributes]}
+        if self.grid_index_to_world is not None:
+            header["grid_index_to_world"] = self.grid_index_to_world.tolist()
         arrays = {"program_code": p.code, "program_init": p.init, "program_tables": p.tables,
                   "attributes": self.attributes}
         return header, arrays
@@ -237,5 +253,5 @@ class ProgramMedium(GridMedium):
                      np.asarray(header["object_to_generated"]), g=header.get("g", 0.0),
                      attributes=arrays.get("attributes"), majorant_resolution=header.get("majorant_resolution",
                                                                                         DEFAULT_MAJORANT_RESOLUTION),
-                     debug=debug)
+                     grid_index_to_world=header.get("grid_index_to_world"), debug=debug)
         return medium

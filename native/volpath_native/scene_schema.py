@@ -68,7 +68,8 @@ _GRID_ARRAYS = {"density": 3, "scatter_grid": 4, "absorb_grid": 4, "emission_gri
 _PROGRAM_FIELDS = {"type": ("str", True), "name": ("str", True), "g": ("float", False),
                    "object_to_world": ("matrix4", True), "bounds": ("any", True), "object_to_generated": ("any", True),
                    "majorant_resolution": ("int", False), "program_name": ("str", False),
-                   "program_varying": ("bool", False), "program_attributes": ("any", False)}
+                   "program_varying": ("bool", False), "program_attributes": ("any", False),
+                   "grid_index_to_world": ("matrix4", False)}
 _PROGRAM_ARRAYS = {"program_code": 1, "program_init": 1, "program_tables": 1, "attributes": 4}
 _MESH_FIELDS = {"name": ("str", True), "smooth": ("bool", False), "attributes": ("list", False),
                 "framed": ("bool", False)}

@@ -532,3 +532,39 @@ def test_fire_volume_matches_cycles(openvdb, tmp_path, clean_scene, flame):
     assert medium is not None and not warnings, warnings
     assert (medium.emission_grid is not None) and medium.emission_grid.max() > 0.05
     assert_cycles_image_matches(obj, medium, min_absorbed=0.5, min_emitted=0.3)
+
+
+def test_node_detail_over_a_vdb_density_becomes_a_program_medium(openvdb, tmp_path, clean_scene):
+    """Density = density attribute x (0.5 + 0.5 x Object X) via Math nodes: compiled into a program
+    that reads the grid as an attribute (Cycles evaluates the nodes per lookup)."""
+    from volpath_native.program_medium import ProgramMedium
+
+    density = procedural_density()
+    path = write_vdb(openvdb, tmp_path / "smoke.vdb", [float_grid(openvdb, "density", density)])
+    obj = volume_object(path)
+    material = principled_material(density=1.0)
+    tree = material.node_tree
+    principled = next(n for n in tree.nodes if n.type == "PRINCIPLED_VOLUME")
+    coords, separate = tree.nodes.new("ShaderNodeTexCoord"), tree.nodes.new("ShaderNodeSeparateXYZ")
+    ramp = tree.nodes.new("ShaderNodeMath")
+    ramp.operation = "MULTIPLY_ADD"
+    ramp.inputs[1].default_value, ramp.inputs[2].default_value = 0.5, 0.5
+    tree.links.new(coords.outputs["Object"], separate.inputs["Vector"])
+    tree.links.new(separate.outputs["X"], ramp.inputs[0])
+    tree.links.new(ramp.outputs["Value"], principled.inputs["Density"])
+    obj.data.materials.append(material)
+    warnings = []
+    exported = evg.export_volume_object(evaluated(obj)[0], warnings)
+    medium = evg.grid_medium_from_volume(exported, warnings)
+    assert isinstance(medium, ProgramMedium), (type(medium), warnings)
+    assert not warnings, warnings
+    grid = exported.grids["density"]
+    voxel = np.array([4, 5, 3])
+    world = (grid.index_to_world @ np.append(voxel, 1.0))[:3]
+    object_x = (np.linalg.inv(np.array(obj.matrix_world)) @ np.append(world, 1.0))[0]
+    _, sigma_t, _ = medium.coefficients(world[None])
+    expected = exported.density_factor * grid.data[tuple(voxel)] * (0.5 + 0.5 * object_x)
+    assert sigma_t[0, 0] == pytest.approx(expected, rel=1e-5)
+    # the box is the grid's (padded) box, as for grid media
+    lo, hi = medium.world_bounds()
+    assert np.all(lo <= world) and np.all(world <= hi)

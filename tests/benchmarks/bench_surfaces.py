@@ -21,8 +21,9 @@ from equal_time import equal_time_row  # noqa: E402
 SCENES = ("glass_of_liquid", "metals_glossy")
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None, scenes=SCENES, description=__doc__) -> int:
+    """Equal-time rows against Cycles for example scenes (bench_procedural.py reuses it)."""
+    parser = argparse.ArgumentParser(description=description.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=20.0, help="equal render-time budget per engine")
     parser.add_argument("--reference-spp", type=int, default=1024)
     parser.add_argument("--resolution", type=int, default=128)
@@ -38,7 +39,7 @@ def main(argv=None) -> int:
     import volpath_native
 
     print(f"kernel warm-up {volpath_native.warm_up():.1f} s (not counted)")
-    for name in SCENES:
+    for name in scenes:
         scene = importlib.import_module(f"examples.{name}").build(resolution=(args.resolution,) * 2, samples=16)
         native_scene, _ = volpath_engine.export(scene)
         with tempfile.TemporaryDirectory(prefix=f"volpath_bench_{name}_") as tmp:
