@@ -145,11 +145,12 @@ def _finish(name: str, pixels: np.ndarray, image, reporter, label: str, associat
         if ignore_alpha:
             pixels[:, :, 3] = 255 if pixels.dtype == np.uint8 else 1.0
         elif associate and not associated:
-            if pixels.dtype == np.uint8:  # util_image_multiply_native: (c * a) / 255 in integers
-                a = pixels[:, :, 3:4].astype(np.uint16)
-                pixels[:, :, :3] = (pixels[:, :, :3].astype(np.uint16) * a // 255).astype(np.uint8)
-            else:
-                pixels[:, :, :3] *= pixels[:, :, 3:4]
+            for rows in _row_chunks(pixels):  # chunks: temporaries stay small for huge images
+                if pixels.dtype == np.uint8:  # util_image_multiply_native: (c * a) / 255 in integers
+                    a = pixels[rows, :, 3:4].astype(np.uint16)
+                    pixels[rows, :, :3] = (pixels[rows, :, :3].astype(np.uint16) * a // 255).astype(np.uint8)
+                else:
+                    pixels[rows, :, :3] *= pixels[rows, :, 3:4]
     if pixels.dtype != np.uint8:
         bad = ~np.all(np.isfinite(pixels), axis=2)
         if bad.any():  # Cycles zeroes non-finite texels (file_load_image)
@@ -163,6 +164,21 @@ def _finish(name: str, pixels: np.ndarray, image, reporter, label: str, associat
     else:
         pixels = _to_scene_linear(pixels, space, reporter, label)
     return Image(name, pixels, compress_as_srgb=srgb)
+
+
+def _row_chunks(pixels, rows: int = 256):
+    for start in range(0, pixels.shape[0], rows):
+        yield slice(start, min(start + rows, pixels.shape[0]))
+
+
+def _flip_rows(pixels: np.ndarray) -> np.ndarray:
+    """Bottom row first, in place (no second copy of a large image)."""
+    h = pixels.shape[0]
+    for i in range(h // 2):
+        top = pixels[i].copy()
+        pixels[i] = pixels[h - 1 - i]
+        pixels[h - 1 - i] = top
+    return pixels
 
 
 def _to_scene_linear(pixels: np.ndarray, space: str, reporter, label: str) -> np.ndarray:
@@ -219,10 +235,9 @@ def _read_file(path: str, image, reporter, label: str) -> Image | None:
     if pixels is None:
         reporter.warn(f"{label}: '{path}' could not be read ({oiio.geterror()}); rendered magenta as Cycles")
         return None
-    pixels = np.asarray(pixels, dtype=dtype).reshape(spec.height, spec.width, spec.nchannels)[::-1]
+    pixels = _flip_rows(np.asarray(pixels, dtype=dtype).reshape(spec.height, spec.width, spec.nchannels))
     if dtype == np.uint16:
         pixels = pixels.astype(np.float32) * np.float32(1.0 / 65535.0)
-    pixels = np.ascontiguousarray(pixels)
     return _finish(image.name_full, pixels, image, reporter, label, associated=not unassociated)
 
 

@@ -155,7 +155,10 @@ def surface_program_tables(materials, accel, images_table=None) -> SurfaceProgra
                 names.append(name)
     if any(True for _ in programs) and ACTIVE_UV not in names:
         names.append(ACTIVE_UV)
-    corner, channels = accel.corner_attributes(names)
+    if programs:
+        corner, channels = accel.corner_attributes(names)
+    else:  # never read
+        corner, channels = np.zeros((1, 3, 1), np.float32), {}
     mat_program = np.full(max(len(materials), 1), -1, np.int64)
     code, init, tables = [], [], []
     prog = np.zeros((max(len(programs), 1), 6), np.int64)

@@ -101,8 +101,8 @@ def image_table(images: list) -> ImageTable:
 def _pool(parts, dtype):
     if not parts:
         return np.zeros(1, dtype)
-    if len(parts) == 1:
-        return parts[0]
+    if len(parts) == 1:  # in place (a read-only array would be a different type for numba: copied)
+        return parts[0] if parts[0].flags.writeable else parts[0].copy()
     return np.concatenate(parts)
 
 
