@@ -45,7 +45,7 @@ def _textured_plane(texels, flip_v=False, field="color", kind="diffuse"):
     return Scene(camera=Camera(camera, projection="orthographic", ortho_scale=2.0),
                  film=Film(N, N, filter="box", filter_width=1.0), meshes=[mesh], materials=[material],
                  world=World(background=np.ones(3)), images=[Image("texels", texels, compress_as_srgb=True)],
-                 settings=RenderSettings(samples=4, seed=3, threads=1))
+                 settings=RenderSettings(samples=64, seed=3, threads=1))
 
 
 def _expected(texels):
@@ -53,24 +53,35 @@ def _expected(texels):
     return _srgb(texels[::-1, :, :3].astype(np.float64))
 
 
+def _matches(image, albedo):
+    """The plane's radiance is albedo x a grey path weight whose mean is 1 (light and BSDF
+    sampling of the uniform sky, MIS-weighted): per pixel the three channels must share one ratio
+    to the albedo exactly, and the ratios must average to 1 within their noise."""
+    ratio = image[..., :3] / albedo
+    same_hue = np.allclose(ratio, ratio[..., :1], rtol=1e-5)
+    scalars = ratio[..., 0].reshape(-1)
+    z = abs(scalars.mean() - 1.0) / max(scalars.std(ddof=1) / np.sqrt(scalars.size), 1e-9)
+    return same_hue, z
+
+
 def test_textured_plane_shows_each_texel():
     texels = _texels()
-    result = render(_textured_plane(texels))
-    assert np.allclose(result.image[..., :3], _expected(texels), rtol=1e-5, atol=1e-6)
+    same_hue, z = _matches(render(_textured_plane(texels)).image, _expected(texels))
+    assert same_hue and z < 4.0, z
 
 
 def test_flipped_uv_is_caught():
     texels = _texels()
-    result = render(_textured_plane(texels, flip_v=True))
-    assert not np.allclose(result.image[..., :3], _expected(texels), rtol=1e-3, atol=1e-3)
+    same_hue, _ = _matches(render(_textured_plane(texels, flip_v=True)).image, _expected(texels))
+    assert not same_hue
 
 
 def test_mesh_without_uv_reads_uv_zero():
     texels = _texels()
     scene = _textured_plane(texels)
     scene.meshes[0].corner_attributes = {}
-    result = render(scene)
-    assert np.allclose(result.image[..., :3], _srgb(texels[0, 0, :3].astype(np.float64)), rtol=1e-5)
+    same_hue, z = _matches(render(scene).image, _srgb(texels[0, 0, :3].astype(np.float64)))
+    assert same_hue and z < 4.0, z
 
 
 def test_vpscene_round_trip(tmp_path):
