@@ -81,10 +81,10 @@ def build(resolution=(64, 64), samples=64):
         d /= max(np.linalg.norm(d), 1e-12)
         return (math.atan2(d[1], d[0]) / (2 * math.pi)) % 1.0, 0.5 + math.asin(max(-1.0, min(1.0, d[2]))) / math.pi
     set_uvs(sphere, sphere_uv, periodic_u=True)
-    leaf = sb.add_quad(scene, "Leaf", [(0.0, -0.6, 0.1), (1.0, -0.6, 0.1), (1.0, -0.6, 1.1), (0.0, -0.6, 1.1)],
+    leaf = sb.add_quad(scene, "Leaf", [(-0.1, -0.6, 0.1), (0.6, -0.6, 0.1), (0.6, -0.6, 0.8), (-0.1, -0.6, 0.8)],
                        leaf_material("Leaf"))
-    set_uvs(leaf, lambda co: (co.x, (co.z - 0.1)))
-    box = sb.add_box(scene, "Painted box", (0.6, 0.6, 0.35), 0.7, painted_material("Painted"))
+    set_uvs(leaf, lambda co: ((co.x + 0.1) / 0.7, (co.z - 0.1) / 0.7))
+    box = sb.add_box(scene, "Painted box", (1.1, 0.4, 0.3), 0.6, painted_material("Painted"))
     paint = box.data.color_attributes.new("Paint", "FLOAT_COLOR", "CORNER")
     rng = np.random.default_rng(5)
     paint.data.foreach_set("color", np.concatenate([rng.uniform(0.05, 0.95, (len(paint.data), 3)),

@@ -61,10 +61,11 @@ def noise_material(name: str):
     noise.inputs["Scale"].default_value = 3.0
     mix = nodes.new("ShaderNodeMix")
     mix.data_type = "RGBA"
-    mix.inputs["A"].default_value = (0.05, 0.2, 0.7, 1.0)
-    mix.inputs["B"].default_value = (0.9, 0.6, 0.1, 1.0)
-    links.new(noise.outputs["Fac"], mix.inputs["Factor"])
-    links.new(mix.outputs["Result"], bsdf.inputs["Base Color"])
+    by_id = {s.identifier: s for s in mix.inputs}  # the Mix node repeats names per data type
+    by_id["A_Color"].default_value = (0.05, 0.2, 0.7, 1.0)
+    by_id["B_Color"].default_value = (0.9, 0.6, 0.1, 1.0)
+    links.new(noise.outputs["Fac"], by_id["Factor_Float"])
+    links.new(next(s for s in mix.outputs if s.identifier == "Result_Color"), bsdf.inputs["Base Color"])
     return mat
 
 
