@@ -18,7 +18,7 @@ bl_info = {  # read by Blender < 4.2; 4.2+ reads blender_manifest.toml
 
 import bpy  # noqa: E402  (bl_info must come first for Blender's legacy add-on scanner)
 
-from . import compat, engine, io_vpscene, properties, ui  # noqa: E402
+from . import compat, engine, io_vpscene, kernel_status, properties, ui  # noqa: E402
 
 _registered = False
 _compare = None  # the optional comparison package (addon/compare), when present
@@ -46,6 +46,7 @@ def register():
     engine.register()
     ui.register()
     io_vpscene.register()
+    kernel_status.register()  # kernels compile in the background now if no cache can serve them
     _compare = _load_compare()
     if _compare is not None:
         try:
@@ -66,6 +67,7 @@ def unregister():
         except Exception as error:
             print(f"VolPath: comparison tools failed to unregister: {type(error).__name__}: {error}")
         _compare = None
+    kernel_status.unregister()
     io_vpscene.unregister()
     ui.unregister()
     engine.unregister()

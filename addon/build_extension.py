@@ -5,7 +5,10 @@
     python addon/build_extension.py install --blender /path/to/blender
 
 build: the wheels named in blender_manifest.toml are produced into wheels/ (volpath_native built
-from native/, the others downloaded for the exact version and platform the manifest names), the
+from native/, the others downloaded for the exact version and platform the manifest names);
+volpath_native's numba kernels are compiled for the portable CPU target from the wheel's own
+sources and shipped inside the wheel (build_kernel_cache: the first render after an install then
+loads them in seconds instead of compiling for minutes), the
 add-on, the manifest and the wheels are staged in build/extension/, and Blender's extension tool
 (blender_ext.py, shipped in the bpy wheel) builds the zip.
 
@@ -17,12 +20,18 @@ user preferences. Blender's BLENDER_USER_CONFIG / BLENDER_USER_SCRIPTS environme
 from __future__ import annotations
 
 import argparse
+import base64
+import hashlib
 import importlib.util
+import os
+import pickle
 import re
 import shutil
 import subprocess
 import sys
+import tempfile
 import tomllib
+import zipfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -33,6 +42,10 @@ STAGE_DIR = ROOT / "build" / "extension"
 DIST_DIR = ROOT / "dist"
 LEGACY_MODULE = "volpath"  # the legacy add-on's package name
 EXTENSION_MIN_VERSION = (4, 2)
+KERNEL_BUILD_DIR = ROOT / "build" / "kernels"
+# numba's codegen.magic_tuple() for the portable target (volpath_native/kernel_target.py): only
+# cache entries compiled for it are shipped.
+PORTABLE_MAGIC = ("x86_64-unknown-linux-gnu", "generic", "")
 _STAGE_IGNORE = shutil.ignore_patterns("__pycache__", "*.pyc", "build_extension.py")
 
 
@@ -88,6 +101,8 @@ def build_wheels() -> list[Path]:
             target.unlink(missing_ok=True)
             _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q",
                   "-w", WHEEL_DIR, ROOT / "native"])
+            if target.exists():
+                ship_kernels(target, build_kernel_cache(target))
         elif not target.exists():
             cmd = [sys.executable, "-m", "pip", "download", "-q", "--only-binary", ":all:", "--no-deps",
                    "-d", WHEEL_DIR, f"{name}=={version}"]
@@ -101,6 +116,101 @@ def build_wheels() -> list[Path]:
             raise BuildError(f"{target.name} was not produced; is the version in blender_manifest.toml right?")
         wheels.append(target)
     return wheels
+
+
+# ----------------------------------------------------------------------------------------------
+# Compiled kernels shipped in the volpath_native wheel
+# ----------------------------------------------------------------------------------------------
+_KERNEL_CHILD = """
+import sys
+sys.path.insert(0, sys.argv[1])
+import volpath_native
+from volpath_native import jit, kernel_target
+assert volpath_native.__file__.startswith(sys.argv[1]), volpath_native.__file__
+assert kernel_target.CPU_NAME == "generic", kernel_target.CPU_NAME
+seconds = volpath_native.warm_up(thorough=True)
+print("VOLPATH_KERNELS", jit.CACHE_KEY, jit.KERNEL_CACHE_DIR, round(seconds, 1))
+"""
+
+
+def build_kernel_cache(wheel: Path) -> Path:
+    """Compile the wheel's kernels for the portable CPU target, by warming them up in a child
+    Python that imports the wheel's own copy (so the cache key, a hash of the sources, is the one
+    an installed copy computes). The cache goes to $NUMBA_CACHE_DIR (default
+    ~/.cache/volpath/numba, where the renderer's own runs put it): an unchanged source tree whose
+    kernels the tests or a render already compiled is reused in seconds; after an edit this
+    compiles every kernel (minutes). Returns the cache folder of these sources."""
+    import numba  # the build Python's numba compiles: it must be the one the manifest ships
+
+    shipped = [Path(w).name for w in read_manifest().get("wheels", []) if Path(w).name.startswith("numba-")]
+    if shipped and _wheel_fields(shipped[0])[1] != numba.__version__:
+        raise BuildError(f"this Python has numba {numba.__version__} but the extension ships {shipped[0]}: "
+                         "the compiled kernels would not be used (run `make venv`)")
+    site = KERNEL_BUILD_DIR / "site"
+    if site.exists():
+        shutil.rmtree(site)
+    site.mkdir(parents=True)
+    with zipfile.ZipFile(wheel) as archive:
+        archive.extractall(site)
+    env = dict(os.environ, NUMBA_CPU_NAME="generic")
+    env.pop("NUMBA_CPU_FEATURES", None)
+    env.pop("VOLPATH_KERNEL_CPU", None)
+    env.setdefault("NUMBA_CACHE_DIR", os.path.join(os.path.expanduser("~"), ".cache", "volpath", "numba"))
+    print("compiling the render kernels for the portable CPU target (minutes after a source change)", flush=True)
+    out = _run([sys.executable, "-c", _KERNEL_CHILD, site], env=env, cwd=KERNEL_BUILD_DIR).stdout
+    match = re.search(r"VOLPATH_KERNELS (\S+) (.+) (\S+)$", out, re.MULTILINE)
+    if not match:
+        raise BuildError(f"the kernel warm-up printed no cache folder:\n{out[-2000:]}")
+    print(f"kernels ready in {match.group(3)} s: {match.group(2)}")
+    return Path(match.group(2).strip())
+
+
+def portable_entries(cache: Path) -> dict[Path, bytes]:
+    """{path relative to `cache`: bytes} of the cache's indexes rewritten to hold only the entries
+    compiled for the portable target, and their data files (a cache folder may also hold entries
+    for this machine's CPU, compiled with VOLPATH_KERNEL_CPU=host)."""
+    from numba.core.serialize import dumps  # what numba writes its indexes with
+
+    files = {}
+    for index in sorted(cache.rglob("*.nbi")):
+        with open(index, "rb") as f:
+            version = pickle.load(f)  # numba's version, then the pickled (stamp, overloads)
+            stamp, overloads = pickle.loads(f.read())
+        kept = {key: name for key, name in overloads.items() if tuple(key[1]) == PORTABLE_MAGIC}
+        if not kept:
+            continue
+        relative = index.relative_to(cache)
+        files[relative] = pickle.dumps(version, protocol=-1) + dumps((stamp, kept))
+        for name in kept.values():
+            files[relative.parent / name] = (index.parent / name).read_bytes()
+    return files
+
+
+def ship_kernels(wheel: Path, cache: Path) -> int:
+    """Add the portable entries of `cache` to the wheel as volpath_native/prebuilt_kernels/<key>/
+    (jit.PREBUILT_DIR), with their lines in the wheel's RECORD. Returns the bytes added."""
+    files = portable_entries(cache)
+    if not files:
+        raise BuildError(f"no kernels compiled for the portable CPU target in {cache}")
+    prefix = f"volpath_native/prebuilt_kernels/{cache.name}/"
+    rebuilt = wheel.with_suffix(".tmp")
+    with zipfile.ZipFile(wheel) as source, zipfile.ZipFile(rebuilt, "w", zipfile.ZIP_DEFLATED) as target:
+        record_name = next(n for n in source.namelist() if n.endswith(".dist-info/RECORD"))
+        record = source.read(record_name).decode()
+        for item in source.infolist():
+            if item.filename != record_name and not item.filename.startswith("volpath_native/prebuilt_kernels/"):
+                target.writestr(item, source.read(item))
+        lines = [line for line in record.splitlines() if line and not line.startswith("volpath_native/prebuilt_kernels/")]
+        for relative, data in sorted(files.items()):
+            name = prefix + relative.as_posix()
+            target.writestr(name, data)
+            digest = base64.urlsafe_b64encode(hashlib.sha256(data).digest()).rstrip(b"=").decode()
+            lines.append(f"{name},sha256={digest},{len(data)}")
+        target.writestr(record_name, "\n".join(lines) + "\n")
+    os.replace(rebuilt, wheel)
+    size = sum(len(d) for d in files.values())
+    print(f"shipped {sum(1 for p in files if p.suffix == '.nbi')} compiled kernels ({size / 1e6:.1f} MB) in {wheel.name}")
+    return size
 
 
 # ----------------------------------------------------------------------------------------------

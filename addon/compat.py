@@ -2,10 +2,12 @@
 place. The rest of the add-on asks these helpers instead of testing bpy.app.version itself."""
 from __future__ import annotations
 
+import math
 import os
 import sys
 
 import bpy
+
 import numpy as np
 
 BLENDER_VERSION = tuple(bpy.app.version)
@@ -64,43 +66,102 @@ def world_node_tree(world):
     return world.node_tree if world.use_nodes else None
 
 
-def corner_normals(mesh, smooth: np.ndarray) -> np.ndarray:
-    """(loops, 3) float32 shading normals per face corner as Cycles syncs them.
+def _attribute_values(mesh, name: str, domain: str, data_type: str, prop: str, dtype, count: int, width: int = 1):
+    """A mesh attribute read in one block copy (Blender 3.5+ keeps positions, corner vertices, face
+    flags as generic attributes; their foreach_get is a memcpy, ~100x faster than the per-item
+    RNA collections). None when this Blender has no such attribute."""
+    attribute = mesh.attributes.get(name)
+    if attribute is None or attribute.domain != domain or attribute.data_type != data_type:
+        return None
+    out = np.empty(count * width, dtype=dtype)
+    attribute.data.foreach_get(prop, out)
+    return out.reshape(-1, width) if width > 1 else out
+
+
+def mesh_positions(mesh) -> np.ndarray:
+    """(V, 3) float32 vertex positions."""
+    out = _attribute_values(mesh, "position", "POINT", "FLOAT_VECTOR", "vector", np.float32, len(mesh.vertices), 3)
+    if out is None:  # Blender < 3.5
+        out = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+        mesh.vertices.foreach_get("co", out)
+        out = out.reshape(-1, 3)
+    return out
+
+
+def corner_vertices(mesh) -> np.ndarray:
+    """(loops,) int32 vertex index of every face corner."""
+    out = _attribute_values(mesh, ".corner_vert", "CORNER", "INT", "value", np.int32, len(mesh.loops))
+    if out is None:  # Blender < 3.6
+        out = np.empty(len(mesh.loops), dtype=np.int32)
+        mesh.loops.foreach_get("vertex_index", out)
+    return out
+
+
+def triangle_faces(mesh, n_tri: int) -> np.ndarray:
+    """(T,) int32 face of each loop triangle."""
+    out = np.empty(n_tri, dtype=np.int32)
+    if hasattr(mesh, "loop_triangle_polygons"):  # Blender 3.6+: one block copy
+        mesh.loop_triangle_polygons.foreach_get("value", out)
+    else:
+        mesh.loop_triangles.foreach_get("polygon_index", out)
+    return out
+
+
+def face_material_indices(mesh) -> np.ndarray:
+    """(faces,) int32 material slot of each face."""
+    out = _attribute_values(mesh, "material_index", "FACE", "INT", "value", np.int32, len(mesh.polygons))
+    if out is None:
+        out = np.empty(len(mesh.polygons), dtype=np.int32)
+        if BLENDER_VERSION >= (3, 4, 0):  # an attribute since 3.4: absent means slot 0 everywhere
+            out[:] = 0
+        else:
+            mesh.polygons.foreach_get("material_index", out)
+    return out
+
+
+def face_smooth(mesh) -> np.ndarray:
+    """(faces,) bool: smooth shaded. Blender 4.0 stores the inverse, the 'sharp_face' attribute,
+    absent when no face is flat."""
+    if BLENDER_VERSION >= (4, 0, 0):
+        sharp = _attribute_values(mesh, "sharp_face", "FACE", "BOOLEAN", "value", bool, len(mesh.polygons))
+        return np.ones(len(mesh.polygons), dtype=bool) if sharp is None else ~sharp
+    out = np.empty(len(mesh.polygons), dtype=bool)
+    mesh.polygons.foreach_get("use_smooth", out)
+    return out
+
+
+def triangle_corner_normals(mesh, smooth: np.ndarray, tri_loops: np.ndarray, tri_faces: np.ndarray,
+                            triangles: np.ndarray) -> np.ndarray:
+    """(T, 3, 3) float32 shading normals at the corners of the loop triangles, as Cycles syncs them.
 
     Cycles 5.0 (intern/cycles/blender/mesh.cpp) asks Blender for `normals_domain(true)`: a mesh
     without custom normals or sharp edges whose faces mix flat and smooth is in the *point*
     domain there, so its smooth faces use the vertex normals (averaged over every face, flat ones
     too) and its flat faces the face normal; only otherwise does it use Blender's corner normals,
     which split the normals at flat faces (what bpy's Mesh.corner_normals returns for such a
-    mesh, whose RNA normals_domain says CORNER). smooth: per-face use_smooth."""
-    out = np.empty(len(mesh.loops) * 3, dtype=np.float32)
+    mesh, whose RNA normals_domain says CORNER). smooth: per-face use_smooth; tri_loops (T*3,)
+    the corners of the triangles, tri_faces (T,) their faces, triangles (T, 3) their vertices."""
+    n_tri = len(tri_faces)
     if not hasattr(mesh, "corner_normals"):  # Blender < 4.1: split normals must be computed first
         mesh.calc_normals_split()
+        out = np.empty(len(mesh.loops) * 3, dtype=np.float32)
         mesh.loops.foreach_get("normal", out)
-        return out.reshape(-1, 3)
-    sharp_edges = mesh.attributes.get("sharp_edge")
-    any_sharp_edge = False
-    if sharp_edges is not None and sharp_edges.domain == "EDGE" and len(mesh.edges):
-        flags = np.empty(len(mesh.edges), dtype=bool)
-        sharp_edges.data.foreach_get("value", flags)
-        any_sharp_edge = bool(flags.any())
-    if mesh.has_custom_normals or any_sharp_edge or smooth.all() or not smooth.any():
+        return out.reshape(-1, 3)[tri_loops].reshape(n_tri, 3, 3)
+    sharp_edges = _attribute_values(mesh, "sharp_edge", "EDGE", "BOOLEAN", "value", bool, len(mesh.edges))
+    any_sharp_edge = sharp_edges is not None and bool(sharp_edges.any())
+    if mesh.has_custom_normals or any_sharp_edge or not smooth.any():
+        out = np.empty(len(mesh.loops) * 3, dtype=np.float32)
         mesh.corner_normals.foreach_get("vector", out)
-        return out.reshape(-1, 3)
+        return out.reshape(-1, 3)[tri_loops].reshape(n_tri, 3, 3)
+    # point domain: the vertex normals (an array copy, where corner_normals is per-item RNA)
     vertex_normals = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-    mesh.vertices.foreach_get("normal", vertex_normals)
-    corner_vertices = np.empty(len(mesh.loops), dtype=np.int32)
-    mesh.loops.foreach_get("vertex_index", corner_vertices)
-    normals = vertex_normals.reshape(-1, 3)[corner_vertices]
-    face_normals = np.empty(len(mesh.polygons) * 3, dtype=np.float32)
-    mesh.polygons.foreach_get("normal", face_normals)
-    starts = np.empty(len(mesh.polygons), dtype=np.int32)
-    counts = np.empty(len(mesh.polygons), dtype=np.int32)
-    mesh.polygons.foreach_get("loop_start", starts)
-    mesh.polygons.foreach_get("loop_total", counts)
-    corner_face = np.repeat(np.arange(len(mesh.polygons)), counts)
-    flat = ~smooth[corner_face]
-    normals[flat] = face_normals.reshape(-1, 3)[corner_face[flat]]
+    mesh.vertex_normals.foreach_get("vector", vertex_normals)
+    normals = vertex_normals.reshape(-1, 3)[triangles]
+    if not smooth.all():  # flat faces: the face normal at each of their corners
+        face_normals = np.empty(len(mesh.polygons) * 3, dtype=np.float32)
+        mesh.polygon_normals.foreach_get("vector", face_normals)
+        flat = ~smooth[tri_faces]
+        normals[flat] = face_normals.reshape(-1, 3)[tri_faces[flat]][:, None, :]
     return normals
 
 
@@ -221,3 +282,23 @@ def use_per_user_kernel_cache() -> str | None:
 # compat is the first module the add-on package imports (addon/__init__.py), so this runs before
 # anything imports the renderer and defines its kernels.
 use_per_user_kernel_cache()
+
+
+# Blender's defaults of the panoramic camera settings (DNA_camera_defaults.h / Cycles' properties).
+_PANORAMA_DEFAULTS = {"panorama_type": "FISHEYE_EQUISOLID", "fisheye_fov": math.pi, "fisheye_lens": 10.5,
+                      "latitude_min": -0.5 * math.pi, "latitude_max": 0.5 * math.pi, "longitude_min": -math.pi,
+                      "longitude_max": math.pi, "central_cylindrical_range_u_min": -math.pi,
+                      "central_cylindrical_range_u_max": math.pi, "central_cylindrical_range_v_min": -1.0,
+                      "central_cylindrical_range_v_max": 1.0, "central_cylindrical_radius": 1.0}
+
+
+def camera_panorama(camera_data, key: str):
+    """A panoramic setting of a camera: on the Camera since Blender 3.5, on its Cycles settings
+    (camera.cycles) before; Blender's default where neither has it (e.g. central cylindrical
+    before 4.x)."""
+    if hasattr(camera_data, key):
+        return getattr(camera_data, key)
+    cycles = getattr(camera_data, "cycles", None)
+    if cycles is not None and hasattr(cycles, key):
+        return getattr(cycles, key)
+    return _PANORAMA_DEFAULTS[key]

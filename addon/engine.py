@@ -11,7 +11,7 @@ import traceback
 import bpy
 import numpy as np
 
-from . import compat
+from . import compat, kernel_status
 
 
 _kernels_ready = False  # volpath_native.warm_up() has run in this Blender session
@@ -39,7 +39,8 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             return
         started = time.perf_counter()
         try:
-            scene, warnings = export_scene(depsgraph, camera_object=self.camera_override, cancel=self.cancel_requested)
+            scene, warnings = export_scene(depsgraph, camera_object=self.camera_override, cancel=self.cancel_requested,
+                                           frame_set=lambda frame, subframe: self.frame_set(frame, subframe=subframe))
             _, _, width, height = _crop_window(scene.film)
         except ExportCancelled:
             self.update_stats("", "VolPath | cancelled while exporting")
@@ -107,8 +108,17 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             return True
         from volpath_native import kernel_compile
 
+        if kernel_status.busy():
+            # enabling the add-on started the compile (kernel_status): wait for it; Esc stops
+            # waiting, not the compile
+            def waiting(seconds):
+                self.update_stats("", f"VolPath | Compiling render kernels in the background "
+                                      f"({int(seconds)} s so far; Esc cancels the render)")
+            if not kernel_status.wait(self.cancel_requested, on_wait=waiting):
+                self.update_stats("", "VolPath | cancelled while the render kernels compile")
+                return False
         if not kernel_compile.kernels_cached():
-            # Compiling takes ~100 s and numba cannot be interrupted: compile in a child process
+            # Compiling takes minutes and numba cannot be interrupted: compile in a child process
             # that Esc can kill (kernel_compile); then load what it cached.
             self.update_stats("", "VolPath | Compiling render kernels (first render only; Esc cancels)")
             if kernel_compile.compile_in_child(self.cancel_requested) is False:

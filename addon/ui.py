@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import compat
+from . import compat, kernel_status
 
 ENGINE = "VOLPATH"
 COMPARE_OPERATOR = "volpath.compare_with_cycles"
@@ -89,6 +89,9 @@ class VOLPATH_PT_render(VolpathPanel, bpy.types.Panel):
         row.operator(VOLPATH_OT_render.bl_idname, icon="RENDER_STILL")
         if operator_available(COMPARE_OPERATOR):
             row.operator(COMPARE_OPERATOR, icon="IMAGE_REFERENCE")
+        status = kernel_status.status_line()
+        if status is not None and status[1] != "CHECKMARK":  # say nothing once they are ready
+            layout.label(text=status[0], icon=status[1])
         col = layout.column(align=True)
         col.prop(settings, "samples")
         col.prop(settings, "seed")

@@ -26,5 +26,9 @@ def install_volpath(home: Path):
     env = dict(os.environ, HOME=str(home), BLENDER_USER_CONFIG=str(home / "config"),
                BLENDER_USER_SCRIPTS=str(home / "scripts"))
     env.pop("PYTHONPATH", None)
+    # the build reuses the kernels this checkout compiled ($NUMBA_CACHE_DIR); Blender starts as a
+    # fresh install: its kernel cache in the add-on's per-user folder, the CPU target its own choice
     run_blender(["make", "-s", "-C", ROOT, "install-blender", f"BLENDER={BLENDER}"], env)
+    for variable in ("NUMBA_CACHE_DIR", "NUMBA_CPU_NAME", "NUMBA_CPU_FEATURES"):
+        env.pop(variable, None)
     return home, env

@@ -15,25 +15,36 @@ import volpath_native as vp
 
 from .. import compat
 from . import camera as camera_export
-from . import fluid, geometry, grid_media, lights, shading, validate
+from . import fluid, geometry, grid_media, lights, motion, procedural_media, shading, validate
 
 __all__ = ["export_scene", "export_settings", "ExportCancelled"]
 
 
-def export_scene(depsgraph, camera_object=None, cancel=None):
+def export_scene(depsgraph, camera_object=None, cancel=None, frame_set=None):
     """Returns (volpath_native.Scene, warnings: list[str]). camera_object overrides scene.camera
     (RenderEngine.camera_override). cancel() is polled between objects: ExportCancelled when true.
-    A SceneError carries the warnings collected before it in `error.warnings`."""
+    A SceneError carries the warnings collected before it in `error.warnings`.
+    With motion blur on, the camera is read at the shutter's times by moving the frame with
+    frame_set(frame, subframe) (RenderEngine.frame_set inside a render; default: the scene's
+    frame_set, which re-evaluates the view layer's depsgraph); the frame comes back afterwards."""
     reporter = shading.Reporter()
+    scene = depsgraph.scene
+    if frame_set is None:
+        def frame_set(frame, subframe):
+            scene.frame_set(frame, subframe=subframe)
+    original_frame = (scene.frame_current, float(scene.frame_subframe))
     try:
         # Invalid numbers are named and replaced by the exporter itself (export/validate.py):
         # numpy's own floating-point warnings would only repeat them, unnamed.
         with np.errstate(all="ignore"):
-            vp_scene = _export(depsgraph, camera_object, reporter, cancel)
+            vp_scene = _export(depsgraph, camera_object, reporter, cancel, frame_set)
             validation_warnings = vp_scene.validate()  # raises SceneError for unusable input
     except vp.SceneError as error:
         error.warnings = list(reporter.messages)  # what else was wrong, for the user to see too
         raise
+    finally:
+        if scene.render.use_motion_blur and (scene.frame_current, float(scene.frame_subframe)) != original_frame:
+            frame_set(*original_frame)
     return vp_scene, reporter.messages + validation_warnings
 
 
@@ -41,16 +52,29 @@ class ExportCancelled(Exception):
     """cancel() became true during the export."""
 
 
-def _export(depsgraph, camera_object, reporter, cancel):
+def _export(depsgraph, camera_object, reporter, cancel, frame_set):
     scene = depsgraph.scene
     table = shading.MaterialTable(reporter)
 
     camera_object = camera_object or scene.camera
-    if camera_object is not None:
-        camera_object = camera_object.evaluated_get(depsgraph)
-        if camera_object.type == "CAMERA":
-            validate.check_camera(camera_object)
-    camera = camera_export.export_camera(camera_object, reporter)
+
+    def camera_now():
+        return camera_object.evaluated_get(depsgraph) if camera_object is not None else None
+
+    def objects_now():
+        return {obj.name: np.array(obj.matrix_world, dtype=np.float64) for obj in depsgraph.objects}
+    # Motion blur first: it moves the frame, and leaves it at the shutter's centre for the rest.
+    shutter = motion.camera_motion(scene, camera_now, frame_set, objects_now, reporter)
+    evaluated_camera = camera_now()
+    if evaluated_camera is not None and evaluated_camera.type == "CAMERA":
+        validate.check_camera(evaluated_camera)
+        for k, matrix in enumerate(shutter.camera_transforms):
+            if not np.all(np.isfinite(matrix)):
+                raise vp.SceneError(f"camera '{evaluated_camera.name}': its transform at motion step {k} is not finite")
+    camera = camera_export.export_camera(evaluated_camera, reporter, shutter.camera_transforms)
+    camera.shutter_curve = shutter.shutter_curve
+    camera.rolling_shutter = shutter.rolling_shutter
+    camera.rolling_shutter_duration = shutter.rolling_shutter_duration
     film = camera_export.export_film(scene, reporter)
 
     meshes, scene_lights, grid_sources = _export_instances(depsgraph, table, reporter, cancel)
@@ -59,6 +83,9 @@ def _export(depsgraph, camera_object, reporter, cancel):
     validate.close_volume_boundaries(meshes, table.materials, reporter)
     world_datablock = compat.render_world(depsgraph.view_layer, scene)
     world = validate.world_background(shading.export_world(world_datablock, table), world_datablock, reporter)
+    if table.procedural.world_program is not None:  # a varying world volume, boxed around the scene
+        anchors = [camera.camera_to_world[:3, 3]] + [getattr(light, "position", np.zeros(3)) for light in scene_lights]
+        meshes += procedural_media.world_medium_box(table.procedural, meshes, anchors, world_datablock.name_full)
 
     return vp.Scene(camera=camera, film=film, meshes=meshes, materials=table.materials,
                     media=table.media, lights=scene_lights, world=world, settings=export_settings(scene),
@@ -71,6 +98,7 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=
     triangulated: dict = {}  # evaluated mesh data -> LocalMesh (None: no triangles)
     grid_sources = set()  # "volume" / "fluid": grid media exported by _export_grid_media
     material_override = depsgraph.view_layer.material_override
+    budget = validate.MemoryBudget()
     for instance in depsgraph.object_instances:
         if cancel is not None and cancel():
             raise ExportCancelled()
@@ -118,6 +146,7 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=
                 triangulated[(key, requests)] = local
         if local is None:
             continue
+        budget.add(obj.name, len(local.triangles))  # SceneError before the memory runs out
         if instance.is_instance:
             parent = instance.parent.name if instance.parent is not None else "instance"
             name = f"{parent}/{obj.name}#{len(meshes)}"

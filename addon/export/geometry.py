@@ -26,13 +26,15 @@ class LocalMesh:
     triangles: np.ndarray  # (T, 3) int32
     material_slots: np.ndarray  # (T,) int32
     corner_normals: Optional[np.ndarray]  # (T, 3, 3) float32 or None (flat)
-    corner_attributes: dict = None  # name -> (T, 3, k) float32, object space (corner_attribute_arrays)
+    corner_attributes: dict = None  # name -> (T, 3, k) float32, object space (corner_attributes.py)
     generated: Optional[np.ndarray] = None  # (3, 4) object -> Generated texture space
 
 
 def triangulate(obj, requests=frozenset(), reporter=None) -> Optional[LocalMesh]:
-    """The evaluated object's geometry as triangles (None when it has none); `requests` names the
-    per-corner attributes surface programs read (volpath_native.surface_programs)."""
+    """The evaluated object's geometry as triangles (None when it has none). Every array is read
+    with one foreach_get into a preallocated array (compat: attribute block copies where Blender
+    has them); only the triangles' corner list goes through the slower loop-triangle collection.
+    `requests` names the per-corner attributes surface programs read (volpath_native.surface_programs)."""
     mesh = obj.to_mesh()
     try:
         if mesh is None:
@@ -41,28 +43,24 @@ def triangulate(obj, requests=frozenset(), reporter=None) -> Optional[LocalMesh]
         n_tri = len(mesh.loop_triangles)
         if n_tri == 0:
             return None
-        vertices = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-        mesh.vertices.foreach_get("co", vertices)
-        triangles = np.empty(n_tri * 3, dtype=np.int32)
-        mesh.loop_triangles.foreach_get("vertices", triangles)
-        material_slots = np.empty(n_tri, dtype=np.int32)
-        mesh.loop_triangles.foreach_get("material_index", material_slots)
-        smooth = np.empty(len(mesh.polygons), dtype=bool)
-        mesh.polygons.foreach_get("use_smooth", smooth)
+        tri_loops = np.empty(n_tri * 3, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("loops", tri_loops)
+        triangles = compat.corner_vertices(mesh)[tri_loops].reshape(-1, 3)
+        tri_faces = compat.triangle_faces(mesh, n_tri)
+        material_slots = compat.face_material_indices(mesh)[tri_faces]
+        smooth = compat.face_smooth(mesh)
         corner_normals = None
         if smooth.any() or mesh.has_custom_normals:
             # Corner normals hold the face normal on flat faces (and sharp edges where Cycles splits).
-            loops = np.empty(n_tri * 3, dtype=np.int32)
-            mesh.loop_triangles.foreach_get("loops", loops)
-            corner_normals = compat.corner_normals(mesh, smooth)[loops].reshape(n_tri, 3, 3)
+            corner_normals = compat.triangle_corner_normals(mesh, smooth, tri_loops, tri_faces, triangles)
+        positions = compat.mesh_positions(mesh)
         attributes = {}
         if requests:
             from .corner_attributes import corner_attribute_arrays
             attributes = corner_attribute_arrays(obj, mesh, requests, reporter)
         from .procedural_media import generated_transform
-        generated = generated_transform(obj, vertices.reshape(-1, 3))
-        return LocalMesh(vertices.reshape(-1, 3), triangles.reshape(-1, 3), material_slots, corner_normals,
-                         attributes, np.asarray(generated, np.float64).reshape(3, 4))
+        generated = np.asarray(generated_transform(obj, positions), np.float64).reshape(3, 4)
+        return LocalMesh(positions, triangles, material_slots, corner_normals, attributes, generated)
     finally:
         obj.to_mesh_clear()
 
@@ -70,13 +68,14 @@ def triangulate(obj, requests=frozenset(), reporter=None) -> Optional[LocalMesh]
 def to_world(name: str, local: LocalMesh, matrix_world: np.ndarray, slot_materials: np.ndarray) -> vp.Mesh:
     """Place a LocalMesh in the world; slot_materials maps slot index -> Scene.materials index."""
     linear = matrix_world[:3, :3]
-    vertices = local.vertices.astype(np.float64) @ linear.T + matrix_world[:3, 3]
+    vertices = local.vertices.astype(np.float64) @ linear.T + matrix_world[:3, 3]  # per vertex, not corner
     triangles = local.triangles
     corner_normals = local.corner_normals
-    if corner_normals is not None:
-        # Normals transform with the inverse transpose: n_world = n @ inverse(linear).
-        normals = corner_normals.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(linear)
-        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+    if corner_normals is not None and not np.array_equal(linear, np.eye(3)):
+        # Normals transform with the inverse transpose: n_world = n @ inverse(linear); in float32
+        # (Cycles' normals are floats), without a float64 copy of every corner.
+        normals = corner_normals.reshape(-1, 3) @ np.linalg.inv(linear).astype(np.float32)
+        normals /= np.maximum(np.sqrt(np.einsum("ij,ij->i", normals, normals)), 1e-30)[:, None]
         corner_normals = normals.reshape(-1, 3, 3)
     attributes = dict(local.corner_attributes or {})
     if np.linalg.det(linear) < 0.0:
@@ -86,7 +85,7 @@ def to_world(name: str, local: LocalMesh, matrix_world: np.ndarray, slot_materia
             corner_normals = corner_normals[:, [0, 2, 1]]
         attributes = {name: values[:, [0, 2, 1]] for name, values in attributes.items()}
     frame = None
-    if local.generated is not None:
+    if local.generated is not None:  # Texture Coordinate Object / Generated / Normal of surfaces
         frame = np.stack([np.linalg.inv(matrix_world)[:3], local.generated])
     # Blender clamps out-of-range material indices to the last slot.
     slots = np.clip(local.material_slots, 0, len(slot_materials) - 1)

@@ -92,6 +92,16 @@ def material_grid_names(material) -> set:
     return {name for name in names if name}
 
 
+def _volume_output(material):
+    node_tree = material_node_tree(material)
+    if node_tree is None:
+        return None
+    outputs = [n for n in node_tree.nodes
+               if n.bl_idname == "ShaderNodeOutputMaterial" and n.target in ("ALL", "CYCLES")]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    return output.inputs.get("Volume") if output is not None else None
+
+
 def principled_volume_inputs(material, warnings: list, label: str) -> dict:
     """The Principled Volume socket values of a material's active Volume output.
 
@@ -99,13 +109,9 @@ def principled_volume_inputs(material, warnings: list, label: str) -> dict:
     (intern/cycles/scene/shader.cpp, "default_volume"). Other node setups and linked inputs are
     not evaluated: warning + the socket's own value / the defaults."""
     values = dict(PRINCIPLED_DEFAULTS)
-    node_tree = material_node_tree(material)
-    if node_tree is None:
+    if material_node_tree(material) is None:
         return values
-    outputs = [n for n in node_tree.nodes
-               if n.bl_idname == "ShaderNodeOutputMaterial" and n.target in ("ALL", "CYCLES")]
-    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-    volume_socket = output.inputs.get("Volume") if output is not None else None
+    volume_socket = _volume_output(material)
     if volume_socket is None or not volume_socket.is_linked:
         warnings.append(f"{label}: material '{material.name}' has no volume shader; Principled Volume defaults used")
         return values
@@ -127,16 +133,6 @@ def principled_volume_inputs(material, warnings: list, label: str) -> dict:
         value = socket.default_value
         values[socket.name] = value if isinstance(value, (str, float, int)) else tuple(value)[:3]
     return values
-
-
-def _volume_output(material):
-    node_tree = material_node_tree(material)
-    if node_tree is None:
-        return None
-    outputs = [n for n in node_tree.nodes
-               if n.bl_idname == "ShaderNodeOutputMaterial" and n.target in ("ALL", "CYCLES")]
-    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-    return output.inputs.get("Volume") if output is not None else None
 
 
 def needs_program(material) -> bool:

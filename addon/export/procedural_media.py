@@ -65,6 +65,7 @@ class ProceduralMedia:
         self.table = table
         self.programs: dict = {}  # material index -> ShaderProgram
         self._bound: dict = {}
+        self.world_program = None  # a world volume that varies over space (world_medium_box)
 
     def bind(self, slot_materials: np.ndarray, obj, instance_name: str, matrix: np.ndarray,
              vertices: np.ndarray) -> np.ndarray:
@@ -105,3 +106,45 @@ class ProceduralMedia:
                            medium=len(table.media) - 1, surface_nodes=[n.copy() for n in material.surface_nodes])
         table.materials.append(copy)
         return len(table.materials) - 1
+
+
+#: Cycles bounds the world volume's octree by +-10 km (scene/volume.cpp, "World volume is unbounded,
+#: use some practical large number instead").
+CYCLES_WORLD_VOLUME_EXTENT = 10000.0
+#: VolPath bounds it by the scene's extent grown by this factor around its centre (a box 10 km wide
+#: would make the majorant cells and the ray offsets of a room-sized scene far too coarse).
+WORLD_BOX_GROWTH = 3.0
+
+
+def world_medium_box(procedural: ProceduralMedia, meshes: list, points: list, world_name: str) -> list:
+    """A varying world volume as a ProgramMedium inside a null box around the scene (meshes, camera
+    and light positions), grown WORLD_BOX_GROWTH times, at most Cycles' +-10 km; returns the box
+    mesh to add. Rays leave the medium at the box (Cycles: at 10 km) -- a documented difference."""
+    program = procedural.world_program
+    if program is None:
+        return []
+    table = procedural.table
+    corners = [np.asarray(p, dtype=np.float64).reshape(-1, 3) for p in points]
+    corners += [m.vertices.astype(np.float64) for m in meshes if len(m.vertices)]
+    everything = np.concatenate(corners) if corners else np.zeros((1, 3))
+    lo, hi = everything.min(axis=0), everything.max(axis=0)
+    centre, half = (lo + hi) / 2.0, np.maximum((hi - lo) / 2.0, 1.0) * WORLD_BOX_GROWTH
+    lo = np.maximum(centre - half, -CYCLES_WORLD_VOLUME_EXTENT)
+    hi = np.minimum(centre + half, CYCLES_WORLD_VOLUME_EXTENT)
+    label = f"world '{world_name}'"
+    identity = np.eye(4)
+    samples = lo + (hi - lo) * np.random.default_rng(0).random((256, 3))
+    g = phase_of(program, np.stack([identity[:3], identity[:3]]), samples, label, table.reporter)
+    try:
+        medium = ProgramMedium(label, program, identity, (lo, hi), identity[:3], g=g)
+    except vp.SceneError as error:
+        table.reporter.warn(f"{label}: {error}; no world volume")
+        return []
+    for message in medium.warnings():
+        table.reporter.warn(message)
+    table.reporter.warn(f"{label}: its volume varies over space; VolPath evaluates it inside a box around the "
+                        f"scene ({(hi - lo).round(2).tolist()} m), Cycles up to 10 km away")
+    table.media.append(medium)
+    table.materials.append(vp.Material(name=f"{label} (volume bounds)", surface="null", base_color=np.zeros(3),
+                                       medium=len(table.media) - 1))
+    return [medium.box_mesh(len(table.materials) - 1)]

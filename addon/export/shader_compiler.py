@@ -21,9 +21,16 @@ import numpy as np
 from volpath_native.shading import program as P
 from volpath_native.shading.builder import ProgramBuilder
 
-# Blender's default scene-linear space (Linear Rec.709) luminance weights: Cycles' rgb_to_y
-# (scene/shader.cpp ShaderManager::init_xyz_transforms, from OCIO's config).
-LUMINANCE = (0.2126729, 0.7151522, 0.0721750)
+# Luminance weights of Blender's scene-linear space, Cycles' rgb_to_y (C5 scene/shader.cpp
+# ShaderManager::init_xyz_transforms): the Y row of inverse(xyz_to_rgb), where xyz_to_rgb =
+# (Blender 5.0 config.ocio: Linear Rec.709 from XYZ D65) x (OCIO builtin ACES-AP0_to_CIE-XYZ-D65_BFD)
+# x inverse(Cycles' 6-decimal copy of that builtin). Not Cycles' no-OCIO fallback (0.2126729,
+# 0.7151522, 0.0721750), which differs by 3e-5; measured against Cycles in tests/shading.
+LUMINANCE = (0.2126390946, 0.7151691213, 0.0721927524)
+# Blender's own colour -> float conversion (IMB_colormanagement_get_luminance: config.ocio's luma),
+# used where Blender, not Cycles, converts: values of unlinked group inputs written into the
+# inlined group.
+BLENDER_LUMA = (0.2126, 0.7152, 0.0722)
 
 _FLOAT_TYPES = ("VALUE", "INT", "BOOLEAN")
 
@@ -95,10 +102,15 @@ class ShaderCompiler:
         source = self._source(socket)
         if source is None:
             return self._constant(node, socket, kind)
+        if isinstance(source, tuple) and source[0] == "constant":
+            # an unlinked group-node input: Blender inlines the group and writes the value into the
+            # inner socket with its own conversion (colour -> float by the config's luma)
+            _, group, outer, _ = source
+            return self._constant(group, outer, kind, BLENDER_LUMA)
         reg, source_kind = self.output(source)
         return self._convert(reg, source_kind, kind)
 
-    def _constant(self, node, socket, kind: str) -> int:
+    def _constant(self, node, socket, kind: str, luminance=LUMINANCE) -> int:
         value = getattr(socket, "default_value", 0.0)
         try:
             values = np.array(value[:], dtype=np.float64).reshape(-1)
@@ -108,6 +120,8 @@ class ShaderCompiler:
             self.warn(node, f"input '{socket.name}' is not finite ({values.tolist()}); read as 0")
             values = np.nan_to_num(values, nan=0.0, posinf=3.4028234663852886e38, neginf=-3.4028234663852886e38)
         source_kind = "float" if values.size == 1 else ("color" if socket.type == "RGBA" else "vector")
+        if source_kind == "color" and kind == "float":
+            return self.const(float(np.dot(values[:3], luminance)))
         return self._convert(self.const(values[:3] if values.size >= 3 else values[:1]), source_kind, kind)
 
     def _convert(self, reg: int, source: str, target: str) -> int:
@@ -123,8 +137,15 @@ class ShaderCompiler:
         return out
 
     def _source(self, socket):
-        """The output socket feeding an input, through reroutes, muted links and Group Inputs, or
-        None (unlinked: use the socket's value)."""
+        """What feeds an input: None (unlinked: the input's own value), an output socket of a node
+        in the current group context, or a tuple for a source elsewhere --
+          ("constant", group node, its input socket, stack): an unlinked group-node input;
+          ("bound", socket, stack): an output socket in an enclosing group context.
+        Reroutes and muted nodes are followed as Blender 5.0 inlines them before Cycles' sync
+        (measured against Cycles in tests/shading/test_core_graph.py): a muted node's output is
+        whatever feeds the input its internal link names, converted once from that source's type
+        to this input's; an unlinked passed input or an output without an internal link leaves
+        this input unlinked (its own value), as does an unlinked reroute."""
         for link in socket.links:
             if link.is_muted or not link.is_valid:
                 continue
@@ -132,6 +153,10 @@ class ShaderCompiler:
             node = source.node
             if node.type == "REROUTE":
                 return self._source(node.inputs[0]) if node.inputs and node.inputs[0].is_linked else None
+            if node.mute and node.type not in ("GROUP_INPUT", "GROUP_OUTPUT"):
+                passed = next((internal.from_socket for internal in node.internal_links
+                               if internal.to_socket.identifier == source.identifier), None)
+                return self._source(passed) if passed is not None else None
             if node.type == "GROUP_INPUT":  # bound to the enclosing group node's input
                 if not self._group_stack:
                     return None
@@ -144,18 +169,27 @@ class ShaderCompiler:
                     found = self._source(outer)
                     if found is None:
                         return ("constant", group, outer, tuple(self._group_stack))
-                    return found
+                    if isinstance(found, tuple):
+                        return found
+                    return ("bound", found, tuple(self._group_stack))
                 finally:
                     self._group_stack.append(group)
             return source
         return None
 
     def output(self, source):
-        """(register, kind) of an output socket (compiling its node once)."""
-        if isinstance(source, tuple) and source[0] == "constant":  # an unlinked group-node input
-            _, group, socket, _ = source
-            kind = _kind(socket)
-            return self._constant(group, socket, kind), kind
+        """(register, kind) of what _source returned (compiling each node once per group context)."""
+        if isinstance(source, tuple):
+            saved = self._group_stack
+            self._group_stack = list(source[-1])
+            try:
+                if source[0] == "constant":  # an unlinked group-node input
+                    _, group, socket, _ = source
+                    kind = _kind(socket)
+                    return self._constant(group, socket, kind), kind
+                return self.output(source[1])  # bound
+            finally:
+                self._group_stack = saved
         node = source.node
         key = (tuple(g.name for g in self._group_stack), node.name)
         if key not in self._outputs:
@@ -183,15 +217,16 @@ class ShaderCompiler:
         return compile_fn(self, node)
 
     def _muted(self, node) -> dict:
-        """A muted node passes the first input of each output's type through (Blender's internal
-        links), else the output's default."""
+        """Outputs of a muted node asked for directly (links into it are resolved by _source): the
+        inputs its internal links name, converted to the output's type; others read 0."""
         outputs = {}
         for out in node.outputs:
-            passed = next((i for i in node.inputs if i.type == out.type), None)
+            passed = next((internal.from_socket for internal in node.internal_links
+                           if internal.to_socket.identifier == out.identifier), None)
             if passed is not None:
                 outputs[out.identifier] = self._input(node, passed.identifier, _kind(out))
             elif out.type in _FLOAT_TYPES + ("RGBA", "VECTOR"):
-                outputs[out.identifier] = self._constant(node, out, _kind(out))
+                outputs[out.identifier] = self.const([0.0, 0.0, 0.0] if _kind(out) != "float" else 0.0)
         return outputs
 
     def _group(self, node) -> dict:
@@ -226,14 +261,25 @@ class ShaderCompiler:
 
     def _volume(self, socket, weight: int):
         source = self._source(socket)
-        if source is None or isinstance(source, tuple):
+        if isinstance(source, tuple):
+            if source[0] == "bound":
+                saved = self._group_stack
+                self._group_stack = list(source[-1])
+                try:
+                    self._volume_from(source[1], weight)
+                finally:
+                    self._group_stack = saved
             return
+        if source is not None:
+            self._volume_from(source, weight)
+
+    def _volume_from(self, source, weight: int):
         node = source.node
-        if node.mute:
-            return
         if node.type == "GROUP":
-            outputs = self._outputs.setdefault((tuple(g.name for g in self._group_stack), node.name),
-                                               self._group(node))
+            key = (tuple(g.name for g in self._group_stack), node.name)
+            if key not in self._outputs:
+                self._outputs[key] = self._group(node)
+            outputs = self._outputs[key]
             entry = outputs.get(source.identifier)
             if isinstance(entry, tuple) and entry[0] == "shader":
                 _, output, identifier, stack = entry

@@ -112,6 +112,64 @@ def _color_ramp(c: ShaderCompiler, node) -> dict:
     return {"Color": color, "Alpha": alpha}
 
 
+#: Cycles' RAMP_TABLE_SIZE (scene/shader_nodes.h): curve and ramp tables hold 257 entries
+RAMP_TABLE_SIZE = 256
+
+
+def curve_table(mapping, curve_count: int, composite: bool):
+    """(table (257, curve_count), min_x, max_x) of a CurveMapping as Blender's Cycles sync bakes it
+    (intern/cycles/blender/util.h curvemapping_minmax, curvemapping_float_to_array /
+    curvemapping_color_to_array): the x range spans the first to the last point over the first
+    curve_count curves; entry i samples min_x + i / 256 (max_x - min_x) (float32, as there); with
+    composite (RGB Curves) the R, G, B curves read the combined C curve's value."""
+    f32 = np.float32
+    curves = list(mapping.curves)
+    min_x = f32(min(curves[k].points[0].location[0] for k in range(curve_count)))
+    max_x = f32(max(curves[k].points[len(curves[k].points) - 1].location[0] for k in range(curve_count)))
+    mapping.update()  # BKE_curvemapping_changed_all, as the sync does
+    span = f32(max_x - min_x)
+    columns = 3 if curve_count > 1 else 1
+    table = np.zeros((RAMP_TABLE_SIZE + 1, columns))
+    for i in range(RAMP_TABLE_SIZE + 1):
+        t = float(f32(min_x + f32(f32(i) / f32(RAMP_TABLE_SIZE)) * span))
+        if composite:
+            t = mapping.evaluate(curves[3], t)
+        for k in range(columns):
+            table[i, k] = mapping.evaluate(curves[k], t)
+    return table, float(min_x), float(max_x)
+
+
+def _extrapolates(mapping) -> int:
+    return 1 if getattr(mapping, "extend", "EXTRAPOLATED") == "EXTRAPOLATED" else 0
+
+
+def _float_curve(c: ShaderCompiler, node) -> dict:
+    """FloatCurveNode (svm_node_curve)."""
+    table, min_x, max_x = curve_table(node.mapping, 1, False)
+    out = c.alloc()
+    c.emit("CURVE_FLOAT", c.table(table), len(table), _extrapolates(node.mapping), c.const(min_x), c.const(max_x),
+           c.float_input(node, "Factor"), c.float_input(node, "Value"), out)
+    return {"Value": out}
+
+
+def _rgb_curves(c: ShaderCompiler, node) -> dict:
+    """RGBCurvesNode (svm_node_curves): the C curve composed under R, G and B."""
+    table, min_x, max_x = curve_table(node.mapping, 4, True)
+    out = c.alloc(3)
+    c.emit("CURVE_RGB", c.table(table), len(table), _extrapolates(node.mapping), c.const(min_x), c.const(max_x),
+           c.float_input(node, "Fac"), c.color_input(node, "Color"), out)
+    return {"Color": out}
+
+
+def _vector_curves(c: ShaderCompiler, node) -> dict:
+    """VectorCurvesNode (svm_node_curves): X, Y, Z curves."""
+    table, min_x, max_x = curve_table(node.mapping, 3, False)
+    out = c.alloc(3)
+    c.emit("CURVE_RGB", c.table(table), len(table), _extrapolates(node.mapping), c.const(min_x), c.const(max_x),
+           c.float_input(node, "Fac"), c.vector_input(node, "Vector"), out)
+    return {"Vector": out}
+
+
 def _separate_xyz(c: ShaderCompiler, node) -> dict:
     x, y, z = c.alloc(), c.alloc(), c.alloc()
     c.emit("SEPARATE3", 0, c.vector_input(node, 0), x, y, z)
@@ -280,5 +338,6 @@ NODE_COMPILERS = {
     "COMBHSV": lambda c, n: _combine_color(c, n, "HSV"), "TEX_COORD": _texture_coordinate,
     "NEW_GEOMETRY": _geometry, "MAPPING": _mapping, "ATTRIBUTE": _attribute, "VOLUME_INFO": _volume_info,
     "BLACKBODY": _blackbody, "INVERT": _invert, "GAMMA": _gamma, "BRIGHTCONTRAST": _bright_contrast,
-    "HUE_SAT": _hue_saturation, "RGBTOBW": _rgb_to_bw,
+    "HUE_SAT": _hue_saturation, "RGBTOBW": _rgb_to_bw, "CURVE_FLOAT": _float_curve, "CURVE_RGB": _rgb_curves,
+    "CURVE_VEC": _vector_curves,
 }

@@ -354,7 +354,14 @@ def export_world(world, table: MaterialTable) -> vp.World:
         else:
             reader.warn(node, "unsupported world surface shader; black background")
     medium = -1
-    volume = _volume_from(reader, output.inputs["Volume"])
+    volume_socket = output.inputs["Volume"]
+    program = (_volume_program_of(f"world '{world.name_full}'", volume_socket, reporter)
+               if _source_socket(volume_socket) is not None else None)
+    if program is not None and program.varying:
+        # bounded like Cycles' world octree; placed once the scene's extent is known (export/__init__)
+        table.procedural.world_program = program
+        return vp.World(background=background, medium=-1)
+    volume = _volume_from(reader, volume_socket)
     if not volume.is_empty:
         table.media.append(_medium_from(f"world '{world.name_full}'", volume))
         medium = len(table.media) - 1

@@ -20,6 +20,8 @@ import numpy as np
 
 import volpath_native as vp
 
+from .. import compat
+
 FLT_MAX = float(np.finfo(np.float32).max)
 
 
@@ -133,10 +135,11 @@ def close_volume_boundaries(meshes: list, materials: list, reporter) -> None:
     the medium (the volume is not rendered; the surface is), with a warning naming the object and
     material. In place. (Cycles renders such a mesh with whatever its volume stack makes of it.)"""
     without_medium: dict = {}  # material index -> index of its copy with medium -1
+    has_medium = np.array([material.medium >= 0 for material in materials], dtype=bool)
     for mesh in meshes:
-        if not len(mesh.triangles):
+        if not len(mesh.triangles) or not len(has_medium):
             continue
-        medium_faces = np.array([materials[i].medium >= 0 for i in mesh.material_ids], dtype=bool)
+        medium_faces = has_medium[mesh.material_ids]
         if not medium_faces.any():
             continue
         open_edges = mesh.open_edge_count(medium_faces)  # coincident vertices merged
@@ -205,3 +208,55 @@ def check_camera(camera_object) -> None:
         value = float(getattr(cam, field))
         if not math.isfinite(value):
             raise vp.SceneError(f"camera '{name}': {field} is {_describe(value)}")
+    lens = {f: getattr(cam.dof, f) for f in ("aperture_fstop", "focus_distance", "aperture_rotation", "aperture_ratio")}
+    pano = {f: compat.camera_panorama(cam, f) for f in (
+        "fisheye_fov", "fisheye_lens", "latitude_min", "latitude_max", "longitude_min", "longitude_max",
+        "central_cylindrical_range_u_min", "central_cylindrical_range_u_max", "central_cylindrical_range_v_min",
+        "central_cylindrical_range_v_max", "central_cylindrical_radius")}
+    for field, value in {**lens, **pano}.items():
+        if not math.isfinite(float(value)):
+            raise vp.SceneError(f"camera '{name}': {field} is {_describe(float(value))}")
+
+
+# Memory a triangle takes from export to render (world-space mesh arrays, the Accelerator's
+# per-triangle tables, Embree's BVH), measured with tests/benchmarks/bench_scene_load.py: peak
+# resident memory of a 1M-triangle smooth mesh render over its triangle count (415), rounded up.
+BYTES_PER_TRIANGLE = 450
+
+
+def available_memory() -> int | None:
+    """Bytes of memory the system can still give this process (Linux MemAvailable), or None."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError):
+        pass
+    return None
+
+
+class MemoryBudget:
+    """Stops an export whose triangles would need more memory than is available, before it
+    allocates it (Blender would be killed by the system): SceneError naming the objects with the
+    most triangles. Checked as each object is placed in the world."""
+
+    def __init__(self, available: int | None = None):
+        self.available = available_memory() if available is None else available
+        self.triangles = 0
+        self.per_object: dict = {}  # object name -> [triangles, instances]
+
+    def add(self, object_name: str, triangles: int) -> None:
+        self.triangles += triangles
+        entry = self.per_object.setdefault(object_name, [0, 0])
+        entry[0] += triangles
+        entry[1] += 1
+        if self.available is None or self.triangles * BYTES_PER_TRIANGLE <= 0.9 * self.available:
+            return
+        largest = sorted(self.per_object.items(), key=lambda item: -item[1][0])[:5]
+        names = ", ".join(f"'{name}' ({count:,} triangles" + (f" in {copies} instances)" if copies > 1 else ")")
+                          for name, (count, copies) in largest)
+        raise vp.SceneError(
+            f"the scene is too large for the memory available: {self.triangles / 1e6:.1f}M triangles so far "
+            f"would need about {self.triangles * BYTES_PER_TRIANGLE / 1e9:.1f} GB, and {self.available / 1e9:.1f} GB "
+            f"are free; the largest objects: {names}. Lower their subdivision levels or instance counts")

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene import Mesh
+from .scene import TRIANGLE_CHUNK as _CHUNK, Mesh, doubled_areas, triangle_cross as _cross
 
 MISS = -1
 
@@ -24,59 +24,70 @@ class Hits:
 
 
 class Accelerator:
-    """All triangles of the scene, flattened, and an Embree BVH over them."""
+    """All triangles of the scene, flattened, and an Embree BVH over them.
+
+    Per triangle it keeps: vertex indices (int32), material and mesh ids (int32), the geometric
+    normal (float64 x3), the area (float64) and, for smooth meshes, corner normals (float32 x9);
+    the float64 corner positions (`corners`, 72 bytes a triangle) only when asked for
+    (triangle_corners for a few). Array work runs in chunks, so temporaries stay small."""
 
     def __init__(self, meshes: list[Mesh]):
-        verts, tris, mats, mesh_ids, corner_normals = [], [], [], [], []
-        self._meshes = list(meshes)
-        self._keep = []  # per mesh: the triangles kept (non-degenerate), in order
+        verts, tris, mats, mesh_ids, kept_meshes = [], [], [], [], []
         base = 0
         for mesh_index, mesh in enumerate(meshes):
-            v = mesh.vertices.astype(np.float64)
             t = mesh.triangles
             if len(t):
-                p = v[t]
-                area2 = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
-                keep = area2 > 1e-20  # degenerate triangles are dropped (Scene.validate warns)
-                self._keep.append(keep)
-                t = t[keep]
+                keep = doubled_areas(mesh.vertices, t) > 1e-20  # degenerate ones dropped (Scene.validate warns)
+                everything = bool(keep.all())
                 verts.append(mesh.vertices)
-                tris.append(t + base)
-                mats.append(mesh.material_ids[keep])
-                mesh_ids.append(np.full(len(t), mesh_index, dtype=np.int32))
-                if mesh.corner_normals is not None:
-                    corner_normals.append(mesh.corner_normals[keep])
-                else:
-                    corner_normals.append(None)
+                tris.append((t if everything else t[keep]) + base)
+                mats.append(mesh.material_ids if everything else mesh.material_ids[keep])
+                mesh_ids.append(np.full(len(tris[-1]), mesh_index, dtype=np.int32))
+                kept_meshes.append((mesh, None if everything else keep))
             base += len(mesh.vertices)
-        self.has_smooth = any(c is not None for c in corner_normals)
+        self.has_smooth = any(mesh.corner_normals is not None for mesh, _ in kept_meshes)
         if tris:
-            self.vertices = np.concatenate(verts).astype(np.float32)
-            self.triangles = np.concatenate(tris).astype(np.int32)
-            self.material_ids = np.concatenate(mats).astype(np.int32)
-            self.mesh_ids = np.concatenate(mesh_ids)
+            self.vertices = _joined(verts, np.float32)
+            self.triangles = _joined(tris, np.int32)
+            self.material_ids = _joined(mats, np.int32)
+            self.mesh_ids = _joined(mesh_ids, np.int32)
         else:
             self.vertices = np.zeros((0, 3), np.float32)
             self.triangles = np.zeros((0, 3), np.int32)
             self.material_ids = np.zeros(0, np.int32)
             self.mesh_ids = np.zeros(0, np.int32)
-        p = self.vertices.astype(np.float64)[self.triangles]
-        self.corners = p  # (T, 3, 3) float64
-        cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]) if len(p) else np.zeros((0, 3))
-        length = np.linalg.norm(cross, axis=1) if len(p) else np.zeros(0)
-        self.normals = cross / np.maximum(length, 1e-30)[:, None]  # outward for CCW triangles
-        self.areas = 0.5 * length
+        n = len(self.triangles)
+        self.normals = np.empty((n, 3))  # outward for CCW triangles
+        self.areas = np.empty(n)
+        for lo in range(0, n, _CHUNK):
+            hi = min(lo + _CHUNK, n)
+            cross = _cross(self.vertices, self.triangles[lo:hi])
+            length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+            self.normals[lo:hi] = cross / np.maximum(length, 1e-30)[:, None]
+            self.areas[lo:hi] = 0.5 * length
         if self.has_smooth:
-            self.corner_normals = np.concatenate([
-                c if c is not None else np.repeat(self.normals[s:s + n, None, :], 3, axis=1)
-                for c, s, n in _segments(corner_normals, mats)]).astype(np.float64)
-        lo = p.reshape(-1, 3).min(axis=0) if len(p) else np.zeros(3)
-        hi = p.reshape(-1, 3).max(axis=0) if len(p) else np.zeros(3)
+            self.corner_normals = np.empty((n, 3, 3), np.float32)
+            start = 0
+            for mesh, keep in kept_meshes:
+                count = len(mesh.triangles) if keep is None else int(np.count_nonzero(keep))
+                normals = mesh.corner_normals
+                if normals is None:  # flat mesh among smooth ones: the geometric normal at every corner
+                    self.corner_normals[start:start + count] = self.normals[start:start + count, None, :]
+                else:
+                    self.corner_normals[start:start + count] = normals if keep is None else normals[keep]
+                start += count
+        used = np.zeros(len(self.vertices), bool)
+        used[self.triangles.reshape(-1)] = True
+        lo = self.vertices[used].min(axis=0).astype(np.float64) if n else np.zeros(3)
+        hi = self.vertices[used].max(axis=0).astype(np.float64) if n else np.zeros(3)
         self.bounds = (lo, hi)
         # Ray offset scale: relative to the scene extent, so it works in mm and km scenes.
         self.epsilon = 1e-5 * max(1.0, float(np.abs(np.concatenate([lo, hi])).max()))
+        self._meshes = list(meshes)  # per-corner attributes and frames (surface programs)
+        self._kept = kept_meshes
+        self._corners = None
         self._embree = None
-        if len(self.triangles):
+        if n:
             from embreex import rtcore_scene
             from embreex.mesh_construction import TriangleMesh
             self._embree = rtcore_scene.EmbreeScene()
@@ -96,16 +107,12 @@ class Accelerator:
                 offset += widths[name]
         table = np.zeros((max(self.triangle_count, 1), 3, max(offset, 1)), np.float32)
         row = 0
-        keeps = iter(self._keep)
-        for mesh in self._meshes:
-            if not len(mesh.triangles):
-                continue
-            keep = next(keeps)
-            n = int(keep.sum())
+        for mesh, keep in self._kept:
+            n = len(mesh.triangles) if keep is None else int(np.count_nonzero(keep))
             for name, (first, width) in channels.items():
                 values = mesh.corner_attributes.get(name)
                 if values is not None:
-                    table[row:row + n, :, first:first + values.shape[2]] = values[keep]
+                    table[row:row + n, :, first:first + values.shape[2]] = values if keep is None else values[keep]
             row += n
         return table, channels
 
@@ -114,6 +121,18 @@ class Accelerator:
         if not self._meshes:
             return np.zeros((1, 2, 3, 4))
         return np.ascontiguousarray(np.stack([m.frame() for m in self._meshes]), dtype=np.float64)
+
+    def triangle_corners(self, index) -> np.ndarray:
+        """(k, 3, 3) float64 corner positions of the triangles `index`."""
+        return self.vertices[self.triangles[index]].astype(np.float64)
+
+    @property
+    def corners(self) -> np.ndarray:
+        """(T, 3, 3) float64 corner positions of every triangle (computed on first use: 72 bytes a
+        triangle, only mesh lights need them all)."""
+        if self._corners is None:
+            self._corners = self.triangle_corners(slice(None))
+        return self._corners
 
     @property
     def triangle_count(self) -> int:
@@ -160,8 +179,8 @@ class Accelerator:
         return n / np.maximum(np.linalg.norm(n, axis=1), 1e-30)[:, None]
 
 
-def _segments(corner_normals, mats):
-    start = 0
-    for c, m in zip(corner_normals, mats):
-        yield c, start, len(m)
-        start += len(m)
+def _joined(arrays: list, dtype) -> np.ndarray:
+    """One contiguous array of the parts (no copy when there is one part of the right type)."""
+    if len(arrays) == 1:
+        return np.ascontiguousarray(arrays[0], dtype=dtype)
+    return np.concatenate(arrays).astype(dtype, copy=False)

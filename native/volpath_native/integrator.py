@@ -27,7 +27,7 @@ from .lights import LightSet
 from .media import MediaTable
 from .sampling import seed_key
 from .scene import Scene
-from .shading.images import image_table, table_nbytes
+from .shading.images import empty_image_table, image_table, table_nbytes
 from .surface_programs import new_surface_scratch, surface_program_tables
 
 
@@ -70,7 +70,8 @@ def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable) -> pk.Scen
         tri_material=np.ascontiguousarray(ids if has_tris else np.zeros(n_tri), dtype=np.int32),
         tri_transparent=np.ascontiguousarray(mat_transparent[ids] if has_tris else np.zeros(n_tri, bool)),
         normals=np.ascontiguousarray(accel.normals, dtype=np.float64),
-        corner_normals=np.ascontiguousarray(accel.corner_normals if accel.has_smooth else np.zeros((0, 3, 3))),
+        corner_normals=np.ascontiguousarray(accel.corner_normals if accel.has_smooth else np.zeros((0, 3, 3)),
+                                            dtype=np.float32),
         has_smooth=bool(accel.has_smooth),
         tri_volume=np.ascontiguousarray(media.tri_volume, dtype=np.int32),
         vol_sigma_s=per_volume(media.sigma_s, (n_vol, 3)), vol_sigma_a=per_volume(media.sigma_a, (n_vol, 3)),
@@ -127,8 +128,9 @@ class Integrator:
         # rays share the camera position's stack unless a volume boundary passes between the
         # camera and the near clip plane (Cycles' is_inside_volume test on the viewplane bounds,
         # scene/camera.cpp device_update_volume); orthographic rays start from different points.
+        # A lens, a panoramic camera or camera motion moves the origins too: near_bounds holds them all.
         self._stack_per_path = bool(self.media.n_volumes) and (
-            scene.camera.projection != "perspective"
+            scene.camera.projection == "orthographic"
             or self.media.boundary_meets_box(*self.camera.near_bounds(self.filter.support + 1.0)))
         self._camera_stack = self.media.empty_stack(1)[0]
         if self.media.n_volumes and not self._stack_per_path:
@@ -155,17 +157,23 @@ class Integrator:
         return buffers
 
     def _start_paths(self, pixel: np.ndarray, sample: np.ndarray, buffers: "_Buffers"):
+        """Camera rays of the paths; returns the path state and how many paths live (paths the
+        camera has no ray for, outside a fisheye's circle, are compacted away: their pixels get
+        nothing from them, as Cycles' zero camera sensitivity)."""
         n = len(pixel)
         F, I, K, C = buffers.F[:n], buffers.I[:n], buffers.K[:n], buffers.C[:n]
         o32, d32, t32 = buffers.o32[:n], buffers.d32[:n], buffers.t32[:n]
+        alive = buffers.alive[:n]
         x0, y0, crop_width, _ = self.crop
-        pk.start_paths(self.tables, self.camera.tables, self.filter.inverse, self._seed_key, (x0, y0, crop_width),
-                       self.scene.film.width, np.ascontiguousarray(pixel, np.int64),
-                       np.ascontiguousarray(sample, np.int64), self._camera_stack, F, I, K, C, o32, d32, t32)
+        unseen = pk.start_paths(self.tables, self.camera.tables, self.filter.inverse, self._seed_key,
+                                (x0, y0, crop_width), self.scene.film.width, np.ascontiguousarray(pixel, np.int64),
+                                np.ascontiguousarray(sample, np.int64), self._camera_stack, F, I, K, C, o32, d32,
+                                t32, alive)
         if self._stack_per_path:
             C[:] = self.media.stack_at(F[:, pk.O:pk.O + 3])
             pk.initial_coefficients(self.tables, C, F, n)
-        return F, I, K, C, o32, d32, t32
+        live = pk.compact(F, I, K, C, n, alive, o32, d32, t32) if unseen else n
+        return F, I, K, C, o32, d32, t32, live
 
     def render_paths(self, pixel: np.ndarray, sample: np.ndarray, cancel=None):
         """Radiance estimates (N,3) for paths (crop-region pixel index, sample index) and stats:
@@ -175,11 +183,12 @@ class Integrator:
         n = len(pixel)
         stats = dict(rays=0, shadow_rays=0, vertices=0, paths=n)
         buffers = self._buffers(n)
-        F, I, K, C, o32, d32, t32 = self._start_paths(pixel, sample, buffers)
+        F, I, K, C, o32, d32, t32, live = self._start_paths(pixel, sample, buffers)
         Q = buffers.queue
         L = np.zeros((n, 4))  # RGB and the count of dropped contributions
         alive = buffers.alive[:n]
         alive[:] = True
+        n = live
         counter = np.zeros(1, np.int64)
         margin = 2.0 * self.accel.epsilon
         # grid tables with a violation record private to this batch (threads never share it),
@@ -262,12 +271,21 @@ def _no_grid_tables():
     return _NO_GRID_TABLES
 
 
-def warm_up() -> float:
+def warm_up(thorough: bool = False) -> float:
     """Compile every stage kernel (or load them from the on-disk cache) by rendering a tiny scene
     with a medium inside a null boundary; returns the seconds it took. Renders call this
-    implicitly; the add-on calls it first so that it can tell the user what the wait is."""
+    implicitly; the add-on calls it first so that it can tell the user what the wait is.
+
+    thorough: also render, through render() as the add-on does, the variants that compile other
+    kernels or signatures: shadow rays without null boundaries, a heterogeneous grid medium the
+    camera sits in (per-path volume stacks), every light type and an orthographic camera. `make
+    extension` ships the kernels this compiles (jit.py), so a first render finds them all."""
     import time
-    from .scene import Camera, Film, Material, Medium, Mesh, PointLight, RenderSettings
+    from .grid_medium import GridMedium
+    from .render import render
+    from .scene import (AreaLight, Camera, Film, Material, Medium, Mesh, PointLight, RenderSettings,
+                        SpotLight, SunLight, World)
+    from .bsdfs.nodes import SurfaceNode
     start = time.perf_counter()
     corners = np.array([[x, y, z] for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1.0, 1.0)])
     box = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6],
@@ -283,4 +301,54 @@ def warm_up() -> float:
                   lights=[PointLight("lamp", [0.0, 0.0, 2.5], power=100.0)],
                   settings=RenderSettings(samples=1, threads=1))
     Integrator(scene).render_paths(np.arange(16) % 16, np.zeros(16, np.int64))
+    if not thorough:
+        return time.perf_counter() - start
+    lights = [PointLight("lamp", [0.0, 0.0, 2.5], power=100.0),
+              SpotLight("spot", [0.0, 1.0, 2.5], power=100.0),
+              AreaLight("area", np.array([0.0, -1.0, 2.5]), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]),
+                        power=50.0),
+              SunLight("sun", [0.2, 0.1, -1.0], irradiance=2.0, angle=0.1)]
+    kinds = [SurfaceNode.for_kind(kind) for kind in ("principled", "glass", "metallic")]
+    solid = Scene(camera=Camera(camera, fov=0.8), film=Film(4, 4), meshes=[floor, Mesh("block", corners * 0.5, box, np.ones(12, int))],
+                  materials=[Material("floor"), Material("block", surface_nodes=kinds)], lights=lights,
+                  world=World(background=0.1), settings=RenderSettings(samples=1, threads=1))
+    render(solid)
+    density = np.linspace(0.0, 1.0, 27, dtype=np.float32).reshape(3, 3, 3)
+    to_world = np.diag([1.0, 1.0, 1.0, 1.0])
+    to_world[:3, 3] = -1.0
+    inside = np.eye(4)  # orthographic, from inside the grid's boundary: per-path volume stacks
+    inside[:3, 3] = [0.0, 0.0, 0.5]
+    cloud = Scene(camera=Camera(inside, projection="orthographic", ortho_scale=1.0), film=Film(4, 4),
+                  meshes=[floor, fog], materials=[Material("floor"), Material("cloud", surface="null", medium=0)],
+                  media=[GridMedium("cloud", density, to_world, np.full(3, 2.0), np.full(3, 0.5))],
+                  lights=lights[:1], settings=RenderSettings(samples=1, threads=1))
+    render(cloud)
+    _warm_up_programs(floor, fog, lights[:1])
     return time.perf_counter() - start
+
+
+def _warm_up_programs(floor, fog, lights):
+    """Compile the shader-program entry points outside the stages: the majorant builder of
+    procedural media (ProgramMedium) and the batch evaluator the exporter uses."""
+    from .program_medium import ProgramMedium
+    from .render import render
+    from .scene import Camera, Film, Material, RenderSettings
+    from .shading import program as P
+    from .shading.builder import ProgramBuilder
+    from .shading.interpreter import run_program_many
+
+    b = ProgramBuilder("warm-up")
+    position, density = b.alloc(3), b.alloc(1)
+    b.emit("TEXCO", P.TEXCO_OBJECT, position)
+    b.emit("VECTOR_TO_FLOAT", position, density)
+    b.emit("VOLUME_SCATTER", 0, b.const(1.0), b.const([0.8, 0.8, 0.8]), density, b.const(0.0))
+    program = b.build()
+    run_program_many(program.code, program.init, program.tables, np.zeros(program.n_registers),
+                     np.zeros((2, 3, 4)), np.zeros((1, 1, 1, 1), np.float32), np.zeros((3, 4)), np.zeros((1, 3)),
+                     np.zeros((1, 4)), P.R_LOBES, 4, empty_image_table())
+    medium = ProgramMedium("warm-up", program, np.eye(4), ([-1, -1, -1], [1, 1, 1]), majorant_resolution=2)
+    camera = np.eye(4)
+    camera[:3, 3] = [0.0, 0.0, 6.0]
+    render(Scene(camera=Camera(camera, fov=0.8), film=Film(4, 4), meshes=[floor, fog],
+                 materials=[Material("floor"), Material("fog", surface="null", medium=0)], media=[medium],
+                 lights=lights, settings=RenderSettings(samples=1, threads=1)))

@@ -5,6 +5,8 @@ numba compiles in the calling thread and cannot be interrupted, so a first rende
 Python with the same sys.path and NUMBA_CACHE_DIR, polling cancel(): on a cancel the child is
 killed and waited for, so control returns at once and nothing is left running. The child writes
 numba's on-disk cache; the caller then loads the kernels from it in about half a second.
+`kernels_cached()` tells, without compiling anything, whether that cache (compiled here, or
+shipped with the package: jit.py) holds kernels this process can load.
 """
 from __future__ import annotations
 
@@ -14,18 +16,48 @@ import sys
 import time
 from pathlib import Path
 
+import pickle
+
 import numba
+from numba.core import config
+from numba.core.registry import cpu_target
+
+from . import jit
 
 _CHILD = ("import sys, volpath_native; "
-          "sys.exit(3) if sys.version_info[:2] != ({major}, {minor}) else volpath_native.warm_up()")
+          "sys.exit(3) if sys.version_info[:2] != ({major}, {minor}) else volpath_native.warm_up(thorough=True)")
 # The child could not run our Python (another version, numpy or numba missing): compile in-process.
 _CHILD_UNUSABLE = 3
 
 
+def codegen_key() -> tuple:
+    """numba's codegen.magic_tuple() in this process (target triple, CPU name, CPU features): the
+    key under which it loads and saves compiled kernels. The features are fixed when the codegen
+    is created; the name is read from the configuration each time (reloaded here as before a
+    compile)."""
+    config.reload_config()
+    return tuple(cpu_target.target_context.codegen().magic_tuple())
+
+
 def kernels_cached(cache_dir: str | None = None) -> bool:
-    """True if numba's cache already holds the path stage (the kernels then load in ~0.5 s)."""
-    folder = Path(cache_dir or numba.config.CACHE_DIR)
-    return folder.is_dir() and any(folder.rglob("path_kernels.shade-*.nbi"))
+    """True if numba's cache holds the path stage for this Python, numba and CPU target (the
+    kernels then load in ~0.5 s); False when loading would compile."""
+    folder = Path(cache_dir or jit.KERNEL_CACHE_DIR)
+    if not folder.is_dir():
+        return False
+    python = f".py{sys.version_info[0]}{sys.version_info[1]}"
+    key = codegen_key()
+    for index in folder.rglob(f"path_kernels.shade-*{python}.nbi"):
+        try:
+            with open(index, "rb") as f:
+                if pickle.load(f) != numba.__version__:
+                    continue
+                _, overloads = pickle.loads(f.read())
+        except Exception:  # unreadable or from another numba: loading would compile
+            continue
+        if any(tuple(entry[1]) == key for entry in overloads):
+            return True
+    return False
 
 
 def python_executable() -> str | None:
@@ -46,7 +78,7 @@ def compile_in_child(cancel, poll: float = 0.05, env: dict | None = None):
         return None
     child_env = dict(os.environ if env is None else env)
     child_env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
-    child_env.setdefault("NUMBA_CACHE_DIR", str(Path(numba.config.CACHE_DIR).parent))
+    child_env.setdefault("NUMBA_CACHE_DIR", jit.cache_root())
     code = _CHILD.format(major=sys.version_info[0], minor=sys.version_info[1])
     try:
         child = subprocess.Popen([python, "-c", code], env=child_env, stdin=subprocess.DEVNULL,

@@ -105,13 +105,14 @@ class LightSet:
             self.two_sided[s] = two_sided[mats]
             self.normal[s] = accel.normals[self.emissive_tris]
             self.area[s] = accel.areas[self.emissive_tris]
-            self.position[s] = accel.corners[self.emissive_tris].mean(axis=1)
+            self.position[s] = accel.triangle_corners(self.emissive_tris).mean(axis=1)
             power[s] = self.strength[s].mean(axis=1) * self.area[s] * np.pi * np.where(self.two_sided[s], 2, 1)
         if n > self.n_lamps + n_tri:
             self.kind[-1] = WORLD
             self.strength[-1] = self.world_radiance
             power[-1] = self.world_radiance.mean() * 4 * np.pi ** 2 * self.scene_radius ** 2
-        self.corners = accel.corners
+        # corners of every triangle, indexed by triangle id: only mesh lights read them
+        self.corners = accel.corners if n_tri else np.zeros((0, 3, 3))
         # One light per row chosen proportionally to its power (Cycles' light tree refines this
         # spatially; the estimator stays unbiased either way).
         total = power.sum()

@@ -95,7 +95,7 @@ class MediaTable:
     def boundary_meets_box(self, lo: np.ndarray, hi: np.ndarray) -> bool:
         """Whether the bounding box of some volume boundary triangle overlaps the box [lo, hi]
         (conservative: False means no boundary passes through the box)."""
-        corners = self.accel.corners[self.tri_volume >= 0]
+        corners = self.accel.triangle_corners(np.nonzero(self.tri_volume >= 0)[0])
         if len(corners) == 0:
             return False
         pad = self.accel.epsilon

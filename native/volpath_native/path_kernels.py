@@ -30,7 +30,7 @@ import numpy as np
 
 from .bsdfs.closures import (LABEL_DIFFUSE, LABEL_TRANSMIT, LABEL_TRANSPARENT, setup_surface,
                              surface_eval, surface_sample, surface_transparency)
-from .camera import camera_ray1
+from .camera import camera_ray1, ray_time1
 from .film import filter_offset1
 from .grid_kernels import STREAM_DIMENSIONS, grid_attenuation, grid_free_flight, grid_scattering, grid_transmittance
 from .jit import inline_stage_kernel, stage_kernel
@@ -41,7 +41,7 @@ from .media import (channel_probabilities1, distance_pdf1, emission_integral1, e
                     transmittance1, transmittance3, truncated_distance_pdf1)
 from .mis import mis_weight, power_heuristic
 from .phase import hg_eval1, hg_sample1
-from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, path_key1, uniform1
+from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, LENS_U_DIM, LENS_V_DIM, SHUTTER_TIME_DIM, path_key1, uniform1
 from .surface_programs import shade_surface_program
 
 # F columns
@@ -209,18 +209,28 @@ def initial_coefficients(S, C, F, n):
 
 
 @stage_kernel
-def start_paths(S, cam, filter_inverse, seed_key, crop, full_width, pixel, sample, stack, F, I, K, C, o32, d32, t32):
+def start_paths(S, cam, filter_inverse, seed_key, crop, full_width, pixel, sample, stack, F, I, K, C, o32, d32, t32,
+                alive):
     """Camera rays and initial state of paths (crop-region pixel index, sample index). crop:
     (x0, y0, width) of the crop region in the full frame; keys use the full-frame pixel, so a crop
     renders exactly the pixels of the full frame. Every path starts in the volume stack `stack`
-    (the camera's)."""
+    (the camera's). alive[p] is False where the camera has no ray (outside a fisheye's circle);
+    returns how many such paths there are."""
     x0, y0, crop_width = crop
+    unseen = 0
     for p in range(pixel.shape[0]):
         px = x0 + pixel[p] % crop_width
         py = y0 + pixel[p] // crop_width
         key = path_key1(seed_key, py * full_width + px, sample[p])
-        origin, direction, tmax = camera_ray1(cam, px + 0.5 + filter_offset1(filter_inverse, uniform1(key, 0)),
-                                              py + 0.5 + filter_offset1(filter_inverse, uniform1(key, 1)))
+        lens_u = uniform1(key, LENS_U_DIM) if cam.aperture_size > 0.0 else 0.5
+        lens_v = uniform1(key, LENS_V_DIM) if cam.aperture_size > 0.0 else 0.5
+        time = ray_time1(cam, py, uniform1(key, SHUTTER_TIME_DIM))
+        origin, direction, tmax, seen = camera_ray1(
+            cam, px + 0.5 + filter_offset1(filter_inverse, uniform1(key, 0)),
+            py + 0.5 + filter_offset1(filter_inverse, uniform1(key, 1)), lens_u, lens_v, time)
+        alive[p] = seen
+        if not seen:
+            unseen += 1
         for j in range(F.shape[1]):
             F[p, j] = 0.0
         _set3(F, p, O, origin)
@@ -240,6 +250,7 @@ def start_paths(S, cam, filter_inverse, seed_key, crop, full_width, pixel, sampl
             for j in range(SS, G + 1):
                 F[p, j] = F[0, j]
         _write_ray(F, p, O, D, TMAX, o32, d32, t32, p)
+    return unseen
 
 
 @inline_stage_kernel

@@ -225,6 +225,10 @@ class ProgramMedium(GridMedium):
             raise SceneError(f"program medium '{self.name}' is bounded by its own mesh")
         return super().boundary_mesh(material_id)
 
+    def box_mesh(self, material_id: int):
+        """The closed box mesh around the medium's box (a world volume's bounds)."""
+        return super().boundary_mesh(material_id)
+
     def to_record(self):
         p = self.program
         header = {"type": "program", "name": self.name, "g": self.g, "object_to_world": self.object_to_world.tolist(),

@@ -19,6 +19,12 @@ _INV_2_53 = 1.0 / float(1 << 53)
 # iteration i is dimension CAMERA_DIMS + i * DIMS_PER_EVENT + o (path_kernels._u).
 CAMERA_DIMS = 2
 DIMS_PER_EVENT = 24
+# The lens sample (depth of field) and the shutter time (motion blur) of a camera ray have
+# dimensions of their own far above the per-iteration ones (and below the grid streams at 2^40,
+# path_kernels), so renders without a lens or motion keep their random numbers.
+LENS_U_DIM = 1 << 39
+LENS_V_DIM = LENS_U_DIM + 1
+SHUTTER_TIME_DIM = LENS_U_DIM + 2
 
 
 @kernel

@@ -204,6 +204,26 @@ class Material:
 # ----------------------------------------------------------------------------------------------
 # Geometry
 # ----------------------------------------------------------------------------------------------
+TRIANGLE_CHUNK = 1 << 18  # triangles per block of array work: temporaries of a few MB
+
+
+def triangle_cross(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(k, 3) float64 (p1 - p0) x (p2 - p0) of triangles (k, 3) into vertices (V, 3)."""
+    p0 = vertices[triangles[:, 0]].astype(np.float64)
+    e1 = vertices[triangles[:, 1]] - p0
+    e2 = vertices[triangles[:, 2]] - p0
+    return np.cross(e1, e2)
+
+
+def doubled_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(T,) float64 twice the area of each triangle, in chunks (no (T, 3, 3) float64 temporary)."""
+    out = np.empty(len(triangles))
+    for lo in range(0, len(triangles), TRIANGLE_CHUNK):
+        cross = triangle_cross(vertices, triangles[lo:lo + TRIANGLE_CHUNK])
+        out[lo:lo + len(cross)] = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+    return out
+
+
 @dataclass
 class Mesh:
     """A triangle mesh in world space.
@@ -278,9 +298,7 @@ class Mesh:
             raise SceneError(f"mesh '{self.name}': object_frame is not finite")
         warnings = []
         if n_tri:
-            v = self.vertices[self.triangles].astype(np.float64)
-            area2 = np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
-            n_degenerate = int(np.count_nonzero(area2 <= 1e-20))
+            n_degenerate = int(np.count_nonzero(doubled_areas(self.vertices, self.triangles) <= 1e-20))
             if n_degenerate:
                 warnings.append(f"mesh '{self.name}': {n_degenerate} degenerate triangles ignored")
         return warnings
@@ -401,15 +419,36 @@ Light = Union[PointLight, SpotLight, AreaLight, SunLight]
 # ----------------------------------------------------------------------------------------------
 # Camera, film, world
 # ----------------------------------------------------------------------------------------------
+# Cycles' panorama types VolPath renders (projection.py); Blender's names in lower case.
+PANORAMA_TYPES = ("equirectangular", "fisheye_equidistant", "fisheye_equisolid", "mirrorball", "central_cylindrical")
+
+
 @dataclass
 class Camera:
-    """Blender-style camera.
+    """Blender-style camera, with Cycles' depth of field, panoramic projections and camera motion.
 
-    projection: 'perspective' or 'orthographic'.
+    projection: 'perspective', 'orthographic' or 'panoramic'.
     fov: full field of view in radians across the fitted sensor axis (perspective).
     ortho_scale: width in metres across the fitted axis (orthographic).
     sensor_fit: 'AUTO' (fit the larger image side), 'HORIZONTAL' or 'VERTICAL'.
-    shift_x, shift_y: lens shift in units of the fitted image dimension (Blender's).
+    shift_x, shift_y: lens shift in units of the fitted image dimension (Blender's); for panoramic
+        cameras in units of the image (Cycles' panoramic viewplane).
+    Depth of field (Cycles' camera: aperturesize, focaldistance, blades, bladesrotation,
+    aperture_ratio): aperture_size is the lens radius in metres (0: a pinhole); focus_distance the
+    distance of the plane of focus (along the ray for panoramic cameras; below 1e-5: 1e-5, as
+    Cycles); aperture_blades >= 3 makes the aperture a regular polygon turned by
+    aperture_rotation (radians); aperture_ratio > 0 squeezes the lens's x (anamorphic bokeh).
+    Panoramic (Cycles' panorama types): panorama_type one of projection.PANORAMA_TYPES;
+    fisheye_fov (radians) and fisheye_lens (mm) for fisheyes; sensor_width / sensor_height (mm)
+    for the equisolid fisheye; latitude / longitude ranges (radians) for equirectangular;
+    cylinder_u_min/max (radians) and cylinder_v_min/max (heights over the cylinder's radius) for
+    central cylindrical.
+    Motion blur: motion_transforms, camera_to_world at evenly spaced times from the shutter's
+    opening to its closing (empty: no camera motion; Cycles' camera motion steps);
+    shutter_curve, the shutter's opening over that interval at evenly spaced times (empty: fully
+    open throughout; Blender's motion_blur_shutter_curve); rolling_shutter with its
+    rolling_shutter_duration (Cycles' rolling shutter type 'TOP').
+    name: the camera's name in warnings.
     """
 
     camera_to_world: np.ndarray
@@ -421,9 +460,83 @@ class Camera:
     shift_y: float = 0.0
     clip_start: float = 0.1
     clip_end: float = 1000.0
+    name: str = "Camera"
+    aperture_size: float = 0.0
+    focus_distance: float = 10.0
+    aperture_blades: int = 0
+    aperture_rotation: float = 0.0
+    aperture_ratio: float = 1.0
+    panorama_type: str = "fisheye_equisolid"
+    fisheye_fov: float = float(np.pi)
+    fisheye_lens: float = 10.5
+    sensor_width: float = 36.0
+    sensor_height: float = 24.0
+    latitude_min: float = -0.5 * float(np.pi)
+    latitude_max: float = 0.5 * float(np.pi)
+    longitude_min: float = -float(np.pi)
+    longitude_max: float = float(np.pi)
+    cylinder_u_min: float = -float(np.pi)
+    cylinder_u_max: float = float(np.pi)
+    cylinder_v_min: float = -1.0
+    cylinder_v_max: float = 1.0
+    motion_transforms: list = field(default_factory=list)
+    shutter_curve: list = field(default_factory=list)
+    rolling_shutter: bool = False
+    rolling_shutter_duration: float = 0.1
 
     def __post_init__(self):
         self.camera_to_world = np.asarray(self.camera_to_world, dtype=np.float64).reshape(4, 4)
+
+    def validate(self) -> list[str]:
+        """SceneError for a camera that cannot be rendered; Cycles' values, with a warning naming
+        the camera, for the numbers Cycles itself corrects."""
+        name = f"camera '{self.name}'"
+        if self.projection not in ("perspective", "orthographic", "panoramic"):
+            raise SceneError(f"{name}: unknown projection '{self.projection}'")
+        if not np.all(np.isfinite(self.camera_to_world)):
+            raise SceneError(f"{name}: transform is not finite")
+        numbers = {f: getattr(self, f) for f in ("aperture_size", "focus_distance", "aperture_rotation",
+                                                  "aperture_ratio", "fisheye_fov", "fisheye_lens", "sensor_width",
+                                                  "sensor_height", "latitude_min", "latitude_max", "longitude_min",
+                                                  "longitude_max", "cylinder_u_min", "cylinder_u_max",
+                                                  "cylinder_v_min", "cylinder_v_max", "rolling_shutter_duration")}
+        for key, value in numbers.items():
+            if not np.isfinite(value):
+                raise SceneError(f"{name}: {key} is not finite ({value})")
+        warnings = []
+        if self.aperture_size < 0:  # Cycles: a lens only for aperturesize > 0
+            warnings.append(f"{name}: negative aperture size {self.aperture_size}; rendered as a pinhole (as Cycles)")
+            self.aperture_size = 0.0
+        if self.aperture_size > 0 and self.focus_distance < 1e-5:
+            warnings.append(f"{name}: focus distance {self.focus_distance} m; Cycles' minimum 1e-05 m is used")
+            self.focus_distance = 1e-5
+        if not self.aperture_ratio > 0:
+            raise SceneError(f"{name}: aperture ratio {self.aperture_ratio} must be positive")
+        if self.projection == "panoramic":
+            if self.panorama_type not in PANORAMA_TYPES:
+                raise SceneError(f"{name}: unknown panorama type '{self.panorama_type}' (expected one of: "
+                                 f"{', '.join(PANORAMA_TYPES)})")
+            for key in ("fisheye_fov", "fisheye_lens", "sensor_width", "sensor_height"):
+                if not getattr(self, key) > 0:
+                    raise SceneError(f"{name}: {key} {getattr(self, key)} must be positive")
+        motion = []
+        for k, matrix in enumerate(self.motion_transforms):
+            matrix = np.asarray(matrix, dtype=np.float64)
+            if matrix.shape != (4, 4) or not np.all(np.isfinite(matrix)):
+                raise SceneError(f"{name}: motion_transforms[{k}] is not a finite 4x4 matrix")
+            motion.append(matrix)
+        if len(motion) == 1:
+            raise SceneError(f"{name}: one motion transform; motion needs at least two (or none)")
+        self.motion_transforms = motion
+        curve = np.asarray(self.shutter_curve, dtype=np.float64).ravel()
+        if curve.size and (not np.all(np.isfinite(curve)) or np.any(curve < 0)):
+            raise SceneError(f"{name}: the shutter curve must be finite and non-negative")
+        if curve.size and not np.any(curve > 0):
+            warnings.append(f"{name}: the shutter curve is closed throughout; rendered with the shutter open "
+                            "throughout")
+            curve = np.zeros(0)
+        self.shutter_curve = curve.tolist()
+        return warnings
 
 
 FILTERS = ("blackman-harris", "box", "gaussian")
@@ -512,10 +625,7 @@ class Scene:
             raise SceneError(f"film resolution {self.film.width}x{self.film.height} is empty")
         if self.film.filter not in FILTERS:
             raise SceneError(f"unknown pixel filter '{self.film.filter}' (expected one of {FILTERS})")
-        if self.camera.projection not in ("perspective", "orthographic"):
-            raise SceneError(f"unknown camera projection '{self.camera.projection}'")
-        if not np.all(np.isfinite(self.camera.camera_to_world)):
-            raise SceneError("camera transform is not finite")
+        warnings += self.camera.validate()
         for medium in self.media:
             if getattr(medium, "is_homogeneous", True):
                 warnings += medium.validate()

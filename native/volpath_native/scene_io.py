@@ -73,6 +73,19 @@ def _mesh_header(mesh) -> dict:
     return header
 
 
+# The camera fields of format 1's first files; the others (depth of field, panoramic, motion
+# blur) are additive and written only where they differ from their defaults, so scenes without
+# them stay readable by earlier readers.
+_FIRST_CAMERA_FIELDS = ("camera_to_world", "projection", "fov", "ortho_scale", "sensor_fit", "shift_x", "shift_y",
+                        "clip_start", "clip_end")
+
+
+def _camera_header(camera) -> dict:
+    header = _to_json(camera)
+    defaults = _to_json(sc.Camera(np.eye(4)))
+    return {k: v for k, v in header.items() if k in _FIRST_CAMERA_FIELDS or v != defaults[k]}
+
+
 def _medium_header(index: int, medium, arrays: dict) -> dict:
     """Homogeneous media are plain JSON; grid media (type "grid") keep their voxel arrays as
     `medium{i}.<name>` entries (additive to format version 1: older files have none)."""
@@ -107,7 +120,7 @@ def save_scene(scene: sc.Scene, path) -> Path:
     header = {
         "format": FORMAT_NAME,
         "version": FORMAT_VERSION,
-        "camera": _to_json(scene.camera),
+        "camera": _camera_header(scene.camera),
         "film": _to_json(scene.film),
         "world": _to_json(scene.world),
         "settings": _to_json(scene.settings),

@@ -24,9 +24,11 @@ from .bsdfs import nodes as bsdf_nodes
 LIGHT_TYPES = {"point": sc.PointLight, "spot": sc.SpotLight, "area": sc.AreaLight, "sun": sc.SunLight}
 
 # Kinds of values: "str", "int", "float", "bool", "rgb" (a number or 3 numbers), "vec3", "matrix4",
-# "crop" (null or 4 numbers), "lobes" ([[rgb, g], ...]), "list", "any".
+# "crop" (null or 4 numbers), "lobes" ([[rgb, g], ...]), "matrices" (a list of matrix4),
+# "numbers" (a list of finite numbers), "list", "any".
 _KINDS = {
-    ("Camera", "camera_to_world"): "matrix4",
+    ("Camera", "camera_to_world"): "matrix4", ("Camera", "motion_transforms"): "matrices",
+    ("Camera", "shutter_curve"): "numbers",
     ("Film", "width"): "int", ("Film", "height"): "int", ("Film", "crop"): "crop",
     ("Medium", "sigma_s"): "rgb", ("Medium", "sigma_a"): "rgb", ("Medium", "phase_lobes"): "lobes",
     ("PointLight", "position"): "vec3", ("PointLight", "power"): "rgb",
@@ -37,7 +39,8 @@ _KINDS = {
 }
 # Values some string fields must take.
 _CHOICES = {
-    ("Camera", "projection"): ("perspective", "orthographic"),
+    ("Camera", "projection"): ("perspective", "orthographic", "panoramic"),
+    ("Camera", "panorama_type"): sc.PANORAMA_TYPES,
     ("Camera", "sensor_fit"): ("AUTO", "HORIZONTAL", "VERTICAL"),
     ("Film", "filter"): sc.FILTERS,
     ("AreaLight", "shape"): sc.AREA_SHAPES,
@@ -57,6 +60,7 @@ _RANGES = {
     **{("RenderSettings", f"{kind}_bounces"): (0, 1 << 20)
        for kind in ("max", "diffuse", "glossy", "transmission", "volume", "transparent")},
     ("RenderSettings", "russian_roulette_min_bounces"): (0, 1 << 20),
+    ("Camera", "aperture_blades"): (0, 1 << 16),
 }
 # The header of a grid medium (grid_medium.GridMedium.to_record): field -> (kind, required).
 _GRID_FIELDS = {"type": ("str", True), "name": ("str", True), "sigma_s": ("rgb", True), "sigma_a": ("rgb", True),
@@ -140,6 +144,15 @@ def _check_value(v, kind: str, where: str, path: str):
                 _fail(where, f"{path}[{k}]", f"expected [sigma_s, g], got {_short(lobe)}")
             _check_value(lobe[0], "rgb", where, f"{path}[{k}][0]")
             _check_value(lobe[1], "float", where, f"{path}[{k}][1]")
+    elif kind == "matrices":
+        if not isinstance(v, list):
+            _fail(where, path, f"expected a list of 4x4 matrices, got {_short(v)}")
+        for k, matrix in enumerate(v):
+            _check_value(matrix, "matrix4", where, f"{path}[{k}]")
+    elif kind == "numbers":
+        if not isinstance(v, list):
+            _fail(where, path, f"expected a list of numbers, got {_short(v)}")
+        numbers(v, len(v), "a list of numbers")
     elif kind == "list":
         if not isinstance(v, list):
             _fail(where, path, f"expected a list, got {_short(v)}")

@@ -106,3 +106,52 @@ def test_esc_while_compiling_the_kernels_returns_within_a_second(scene, monkeypa
     assert time.perf_counter() - state["pressed"] < 1.0
     assert threading.active_count() == baseline
     assert not engine._kernels_ready  # the next F12 compiles again
+
+
+def test_compile_on_enable_shows_its_state_an_f12_waits_and_disable_stops_it(scene, monkeypatch, tmp_path):
+    """When no cache can serve the kernels, enabling the add-on compiles them in a background
+    child (addon/kernel_status.py): the render panel's status line says so, an F12 meanwhile waits
+    for it and Esc ends that wait (the compile goes on), and stopping the job kills the child."""
+    from addon import engine, kernel_status
+    from volpath_native import kernel_compile
+
+    busy_scene(scene, objects=1)
+    monkeypatch.setattr(engine, "_kernels_ready", False)
+    monkeypatch.setattr(kernel_compile, "kernels_cached", lambda *args: False)
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))  # the child compiles from scratch, there
+    assert kernel_status.start()
+    try:
+        deadline = time.monotonic() + 30.0
+        while kernel_status.phase() != kernel_status.COMPILING and time.monotonic() < deadline:
+            time.sleep(0.05)
+        text, icon = kernel_status.status_line()
+        assert text.startswith("Compiling render kernels in the background"), text
+        state = {}
+
+        def esc_pressed(self):
+            now = time.perf_counter()
+            state.setdefault("first", now)
+            if now - state["first"] >= 1.0:
+                state.setdefault("pressed", now)
+                return True
+            return False
+
+        monkeypatch.setattr(VolpathRenderEngine, "cancel_requested", esc_pressed)
+        bpy.ops.render.render()
+        assert time.perf_counter() - state["pressed"] < 1.0
+        assert kernel_status.busy() and kernel_status.phase() == kernel_status.COMPILING  # still compiling
+    finally:
+        kernel_status.stop()
+    assert not kernel_status.busy() and kernel_status.phase() == kernel_status.STOPPED
+    assert not any(tmp_path.rglob("path_kernels.shade-*.nbi"))  # killed before it finished
+
+
+def test_compile_on_enable_finds_cached_kernels_at_once():
+    import volpath_native
+    from addon import kernel_status
+
+    volpath_native.warm_up()
+    assert kernel_status.start()
+    kernel_status.wait(lambda: False)
+    assert kernel_status.phase() == kernel_status.READY
+    assert kernel_status.status_line() == ("Render kernels ready", "CHECKMARK")

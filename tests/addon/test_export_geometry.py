@@ -166,3 +166,62 @@ def test_mixed_flat_and_smooth_faces_use_vertex_normals_as_cycles(scene):
         np.testing.assert_allclose(normals, expected, atol=1e-5)
         checked_smooth += 1
     assert checked_flat == 2 and checked_smooth == 10
+
+
+@pytest.mark.parametrize("shading", ["smooth", "flat", "mixed", "sharp_edge"])
+def test_block_reads_match_blenders_loop_triangles(scene, shading):
+    """triangulate() reads attributes in block copies; it must give what Blender's per-item
+    loop-triangle collection says: vertices, material slots, and (smooth) its corner normals."""
+    from addon.export import geometry
+
+    red = node_material("Red", surface=shader("ShaderNodeBsdfDiffuse", Color=(1, 0, 0, 1)))
+    blue = node_material("Blue", surface=shader("ShaderNodeBsdfDiffuse", Color=(0, 0, 1, 1)))
+    obj = add_mesh(scene, "Sub", material=red, smooth=shading != "flat")
+    obj.data.materials.append(blue)
+    obj.data.polygons[2].material_index = 1
+    obj.modifiers.new("Subdivision", "SUBSURF").levels = 2
+    if shading == "mixed":
+        obj.data.polygons[0].use_smooth = False
+    if shading == "sharp_edge":
+        obj.data.edges[0].use_edge_sharp = True
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    local = geometry.triangulate(evaluated)
+    mesh = evaluated.to_mesh()
+    mesh.calc_loop_triangles()
+    n = len(mesh.loop_triangles)
+    expected_tris = np.empty(n * 3, np.int32)
+    mesh.loop_triangles.foreach_get("vertices", expected_tris)
+    expected_slots = np.empty(n, np.int32)
+    mesh.loop_triangles.foreach_get("material_index", expected_slots)
+    expected_co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", expected_co)
+    np.testing.assert_array_equal(local.triangles.reshape(-1), expected_tris)
+    np.testing.assert_array_equal(local.material_slots, expected_slots)
+    assert set(np.unique(expected_slots)) == {0, 1}
+    np.testing.assert_array_equal(local.vertices.reshape(-1), expected_co)
+    if shading == "flat":
+        assert local.corner_normals is None
+    elif shading in ("smooth", "sharp_edge"):  # Blender's own corner normals (point domain: vertex normals)
+        loops = np.empty(n * 3, np.int32)
+        mesh.loop_triangles.foreach_get("loops", loops)
+        corner = np.array([mesh.corner_normals[i].vector for i in loops], np.float32).reshape(n, 3, 3)
+        np.testing.assert_allclose(local.corner_normals, corner, atol=1e-6)
+    evaluated.to_mesh_clear()
+
+
+def test_a_scene_larger_than_memory_stops_naming_its_objects(scene, monkeypatch):
+    """The export stops with a SceneError naming the largest objects before allocating what the
+    triangles would need; the same scene exports with the memory it needs."""
+    import volpath_native as vp
+    from addon.export import validate
+
+    big = add_mesh(scene, "Big")
+    big.modifiers.new("Subdivision", "SUBSURF").levels = 4  # 3072 triangles
+    add_mesh(scene, "Small", location=(3, 0, 0))  # 12 triangles
+    need = (3072 + 12) * validate.BYTES_PER_TRIANGLE
+    monkeypatch.setattr(validate, "available_memory", lambda: int(need / 0.9) + 1)
+    assert len(export(scene)[0].meshes) == 2  # just enough
+    monkeypatch.setattr(validate, "available_memory", lambda: int(need / 0.9) - 4 * validate.BYTES_PER_TRIANGLE)
+    with pytest.raises(vp.SceneError) as error:
+        export(scene)
+    assert "'Big' (3,072 triangles)" in str(error.value) and "too large for the memory" in str(error.value)

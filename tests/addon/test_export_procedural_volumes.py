@@ -79,3 +79,34 @@ def test_an_unsupported_node_is_named(scene):
     add_mesh(scene, "Fog", material=node_material("Odd", volume=tree_with_script))
     _, warnings = export(scene)
     assert any("Odd" in w and "Light Path" in w for w in warnings), warnings
+
+
+def test_a_varying_world_volume_fills_a_box_around_the_scene(scene):
+    """World Volume = height fog from Geometry Position: a ProgramMedium in a null box around the
+    scene (Cycles bounds it at 10 km), named in a warning."""
+    world = bpy.data.worlds.new("Foggy")
+    scene.world = world
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    tree = world.node_tree
+    output = next(n for n in tree.nodes if n.type == "OUTPUT_WORLD")
+    volume = tree.nodes.new("ShaderNodeVolumePrincipled")
+    geometry, separate = tree.nodes.new("ShaderNodeNewGeometry"), tree.nodes.new("ShaderNodeSeparateXYZ")
+    map_range = tree.nodes.new("ShaderNodeMapRange")
+    map_range.inputs["From Min"].default_value, map_range.inputs["From Max"].default_value = 0.0, 2.0
+    map_range.inputs["To Min"].default_value, map_range.inputs["To Max"].default_value = 1.0, 0.0
+    tree.links.new(geometry.outputs["Position"], separate.inputs["Vector"])
+    tree.links.new(separate.outputs["Z"], map_range.inputs["Value"])
+    tree.links.new(map_range.outputs["Result"], volume.inputs["Density"])
+    tree.links.new(volume.outputs[0], output.inputs["Volume"])
+    add_mesh(scene, "Block")
+    vp_scene, warnings = export(scene)
+    assert vp_scene.world.medium == -1
+    (medium,) = [m for m in vp_scene.media if isinstance(m, ProgramMedium)]
+    _, sigma_t, _ = medium.coefficients(np.array([[0.3, 0.2, 0.5], [0.0, 0.0, 3.0]]))
+    assert np.allclose(sigma_t[:, 0], [0.75, 0.0])
+    box = vp_scene.meshes[-1]
+    assert vp_scene.materials[box.material_ids[0]].surface == "null"
+    lo, hi = box.vertices.min(axis=0), box.vertices.max(axis=0)
+    assert np.all(lo < [-1, -6, -1]) and np.all(hi > [1, 1, 1])  # camera at (0, -6, 0) inside
+    assert any("Foggy" in w and "box around the scene" in w for w in warnings), warnings

@@ -128,7 +128,7 @@ _SCENE_SCRIPT = textwrap.dedent('''
 
 
 def test_installed_in_blender_renders_headless(installed_blender, tmp_path):
-    home, env = installed_blender  # a fresh install: the first render compiles every kernel (~100 s)
+    home, env = installed_blender  # a fresh install: the first render loads the shipped kernels
     assert not (Path.home() / ".config" / "blender" / "volpath-test-marker").exists()
 
     scene_file = tmp_path / "fog.blend"
@@ -159,6 +159,50 @@ def test_installed_in_blender_renders_headless(installed_blender, tmp_path):
     assert abs(image[..., :3].mean() / reference[..., :3].mean() - 1.0) < 0.05
 
 
+_KERNELS_SCRIPT = textwrap.dedent('''
+    import gc, time, bpy
+    started = time.perf_counter()
+    bpy.ops.render.render()
+    seconds = time.perf_counter() - started
+    import numba
+    from numba.core.registry import CPUDispatcher
+    from volpath_native import jit
+    ours = [d for d in gc.get_objects() if isinstance(d, CPUDispatcher) and d.py_func.__module__.startswith("volpath_native")]
+    compiled = sorted(f"{d.py_func.__module__}.{d.py_func.__qualname__}" for d in ours if sum(d.stats.cache_misses.values()))
+    loaded = sum(sum(d.stats.cache_hits.values()) for d in ours)
+    print("VOLPATH_KERNELS loaded=%d compiled=%s cpu=%s seconds=%.1f" % (loaded, ",".join(compiled) or "-", numba.config.CPU_NAME, seconds))
+    print("VOLPATH_CACHE " + jit.KERNEL_CACHE_DIR)
+    print("VOLPATH_SHIPPED " + str(jit.PREBUILT_DIR / jit.CACHE_KEY), flush=True)
+    import os
+    os._exit(0)  # Debian's 3.4 crashes in addon_utils.disable_all at exit once the renderer was imported by a script (also before this change)
+''')
+
+
+def test_installed_blender_loads_the_shipped_kernels(installed_blender, tmp_path):
+    """After `make install-blender` (a legacy add-on in Debian's 3.4), a render compiles no kernel:
+    all of them load from the cache shipped in the volpath_native wheel, which the add-on copied
+    into its per-user folder. Independent of which kernels exist: any kernel a render needs that
+    the build's warm-up missed shows up here by name."""
+    home, env = installed_blender
+    scene_file = tmp_path / "fog.blend"
+    (tmp_path / "make_scene.py").write_text(_SCENE_SCRIPT)
+    _run([BLENDER, "-b", "--python-exit-code", "1", "--python", tmp_path / "make_scene.py", "--", scene_file], env)
+    (tmp_path / "count.py").write_text(_KERNELS_SCRIPT)
+    out = _run([BLENDER, "-b", scene_file, "--python-exit-code", "1", "--python", tmp_path / "count.py"], env)
+    found = dict(item.split("=", 1) for item in out.split("VOLPATH_KERNELS ")[1].split("\n")[0].split())
+    assert found["cpu"] == "generic", found
+    assert found["compiled"] == "-", ("kernels compiled at render time (extend integrator.warm_up(thorough=True)): "
+                                      + found["compiled"])
+    assert int(found["loaded"]) > 0, found
+    cache = Path(out.split("VOLPATH_CACHE ")[1].split("\n")[0].strip())
+    shipped = Path(out.split("VOLPATH_SHIPPED ")[1].split("\n")[0].strip())
+    assert str(cache).startswith(str(home)) and "volpath/numba" in str(cache), cache
+    indexes = sorted(p.relative_to(shipped) for p in shipped.rglob("*.nbi"))
+    assert indexes, "no kernels shipped in " + str(shipped)
+    for index in indexes:  # seeded, and not rewritten by a compile since
+        assert (cache / index).read_bytes() == (shipped / index).read_bytes(), index
+
+
 _EXTENSION_SCRIPT = textwrap.dedent('''
     import importlib.machinery, os, pathlib, sys, sysconfig
     zip_path, out_path = sys.argv[1], sys.argv[2]
@@ -181,6 +225,14 @@ _EXTENSION_SCRIPT = textwrap.dedent('''
 
     sys.meta_path.insert(0, WithoutVenvCopies)
     import bpy, numpy as np
+
+    def compiled_kernels():
+        """volpath_native kernels numba compiled in this process (rather than loaded)."""
+        import gc
+        from numba.core.registry import CPUDispatcher
+        return sorted(f"{d.py_func.__module__}.{d.py_func.__qualname__}" for d in gc.get_objects()
+                      if isinstance(d, CPUDispatcher) and d.py_func.__module__.startswith("volpath_native")
+                      and sum(d.stats.cache_misses.values()))
     result = bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default",
                                                       enable_on_install=True)
     assert result == {"FINISHED"}, result
@@ -197,9 +249,14 @@ _EXTENSION_SCRIPT = textwrap.dedent('''
     sc.render.image_settings.file_format = "OPEN_EXR"
     sc.render.filepath = out_path
     bpy.ops.render.render(write_still=True)
+    from volpath_native import jit
     from volpath_native.sampling import uniform1
-    assert 0.0 <= uniform1(np.uint64(7), 1) < 1.0  # compiled by the bundled numba, cached per user
+    assert 0.0 <= uniform1(np.uint64(7), 1) < 1.0  # run by the bundled numba, cached per user
     assert list(cache.rglob("*.nbi")), "numba wrote no cache index into " + str(cache)
+    # the first render of a fresh install compiled nothing: the kernels shipped in the wheel
+    # seeded the per-user cache and loaded from it
+    assert jit.KERNELS_SEEDED > 0, "no shipped kernels seeded " + jit.KERNEL_CACHE_DIR
+    assert not compiled_kernels(), "compiled at the first render: " + ", ".join(compiled_kernels())
 ''')
 
 

@@ -21,3 +21,23 @@ def assert_engines_agree(result, label, tmp_path):
         assert test.passed, f"{label}: {size}x{size} blocks differ (VolPath / Cycles): worst {test.worst()}\n{details}"
     # Guard against a vacuous pass: the scene must actually be lit.
     assert min(summary["channel_means_b"]) > 1e-3
+
+
+def assert_planted_error_fails(scene, native_scene, correct, planted, runs: int, samples_per_run: int):
+    """The correct VolPath runs agree with Cycles and the planted ones do not (the criterion can see
+    the error at this sample count); returns the failing comparison."""
+    from addon.compare import cycles_engine, metrics
+
+    bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
+    cycles = cycles_engine.render_runs(scene, runs=runs, samples=samples_per_run, base_seed=101, bounces=bounces,
+                                       resolution=tuple(native_scene_resolution(native_scene)))
+    cycles_statistics = metrics.run_statistics([r.image for r in cycles])
+    baseline = metrics.compare_runs(metrics.run_statistics([r.image for r in correct]), cycles_statistics)
+    assert baseline.passed, baseline.summary()
+    comparison = metrics.compare_runs(metrics.run_statistics([r.image for r in planted]), cycles_statistics)
+    assert not comparison.passed, comparison.summary()
+    return comparison
+
+
+def native_scene_resolution(native_scene):
+    return native_scene.film.width, native_scene.film.height

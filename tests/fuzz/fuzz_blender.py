@@ -91,7 +91,9 @@ lights = st.fixed_dictionaries({
 worlds = st.none() | st.fixed_dictionaries({"color": st.sampled_from(VALUE_CLASSES),
                                             "strength": st.sampled_from(VALUE_CLASSES),
                                             "volume": st.none() | node(VOLUMES)})
-cameras = st.fixed_dictionaries({"type": st.sampled_from(("PERSP", "PERSP", "ORTHO")),
+cameras = st.fixed_dictionaries({"type": st.sampled_from(("PERSP", "PERSP", "ORTHO", "PANO")),
+                                 "dof": st.sampled_from(("off", "off", "normal", "zero_f_stop", "focus_self")),
+                                 "motion_blur": st.booleans(),
                                  "location": st.sampled_from(("normal",) * 8 + ("nan",)),
                                  "lens": st.sampled_from(("normal", "normal", "huge", "out_of_range"))})
 volume_objects = st.fixed_dictionaries({
@@ -236,7 +238,15 @@ def build(desc) -> Planted:
     cam = bpy.data.cameras.new("Cam")
     cam.type = cam_desc["type"]
     cam.lens = {"normal": 35.0, "huge": 1e6, "out_of_range": 0.5}[cam_desc["lens"]]
+    if cam_desc["type"] == "PANO":
+        cam.panorama_type = "EQUIRECTANGULAR"
     cam_obj = bpy.data.objects.new("Cam", cam)
+    dof = cam_desc.get("dof", "off")  # regression descriptions predate the lens and motion blur
+    if dof != "off":
+        cam.dof.use_dof = True
+        cam.dof.aperture_fstop = 0.0 if dof == "zero_f_stop" else 2.0
+        cam.dof.focus_object = cam_obj if dof == "focus_self" else None
+    sc.render.use_motion_blur = cam_desc.get("motion_blur", False)
     cam_obj.location = (0.0, -8.0 if cam_desc["location"] == "normal" else math.nan, 0.0)
     cam_obj.rotation_euler = (math.pi / 2, 0.0, 0.0)
     sc.collection.objects.link(cam_obj)

@@ -53,7 +53,15 @@ def seed_scenes() -> list:
                 materials=[Material("d", base_color=[0.2, 0.5, 0.8])], media=[Medium("world fog", 0.05, 0.01)],
                 lights=[PointLight("p", [0, 0, 3], power=80.0)], world=World(medium=0),
                 settings=RenderSettings(samples=1, threads=1, volume_bounces=2))
-    return [one, two]
+    # the camera's optional fields: a lens, a panorama, motion steps, a shutter curve
+    three = Scene(camera=Camera(camera_at([0, 0, 3]), projection="panoramic", panorama_type="fisheye_equisolid",
+                                aperture_size=0.05, focus_distance=2.0, aperture_blades=5, aperture_ratio=1.5,
+                                motion_transforms=[camera_at([0, 0, 3]), camera_at([0.2, 0, 3]), camera_at([0.4, 0, 3])],
+                                shutter_curve=[0.0, 1.0, 0.5], rolling_shutter=True, name="fisheye"),
+                  film=Film(6, 5), meshes=[box_mesh("box", [-1, -1, -1], [1, 1, 1], 0)],
+                  materials=[Material("d", base_color=0.5)], lights=[PointLight("p", [0, 0, 2.5], power=50.0)],
+                  world=World(background=0.2), settings=RenderSettings(samples=1, threads=1))
+    return [one, two, three]
 
 
 # Values a mutation writes: every JSON type, extremes and near-misses.

@@ -26,7 +26,9 @@ INDEX_AOV = "ij"
 
 @dataclass
 class Variant:
-    """build(nodes, links, vector_socket, w_socket) -> {aov name: output socket}."""
+    """build(nodes, links, vector_socket, w_socket) -> {aov name: output socket}; value AOVs are
+    named 'v*', colour AOVs 'c*'. params["setup"](obj), if given, runs on the variant's plane
+    object before the render (e.g. to change its texture space)."""
     name: str
     build: Callable
     scale: tuple = (0.25, 0.25, 0.125, 0.1875)
@@ -116,13 +118,15 @@ def _material(bpy, variant: Variant, index: int):
     for name, socket in variant.build(nodes, links, comb.outputs[0], w).items():
         aov = nodes.new("ShaderNodeOutputAOV")
         aov.aov_name = name
-        links.new(socket, aov.inputs["Color" if name in COLOR_AOVS else "Value"])
+        links.new(socket, aov.inputs["Color" if name.startswith("c") else "Value"])
     return mat
 
 
-def render_variants(variants: list) -> list:
+def render_variants(variants: list, value_aovs=VALUE_AOVS, color_aovs=COLOR_AOVS) -> list:
     """Render every variant's plane once with Cycles; returns per variant a dict with 'i', 'j'
-    (int arrays) and each AOV it wrote ('v*': (n,), 'c*': (n, 3)), float32 as Cycles stored them."""
+    (int arrays), 'pixel_world' ((n, 3) world position of each pixel's centre, from the camera)
+    and each AOV it wrote ('v*': (n,), 'c*': (n, 3)), float32 as Cycles stored them. The plane
+    objects stay in bpy.data (named oracle_<index>) until the next render."""
     import bpy
     import OpenImageIO as oiio
 
@@ -137,6 +141,8 @@ def render_variants(variants: list) -> list:
         obj.location = (index % columns, -(index // columns), 0.0)
         mesh.materials.append(_material(bpy, variant, index))
         scene.collection.objects.link(obj)
+        if "setup" in variant.params:
+            variant.params["setup"](obj)
     cam_data = bpy.data.cameras.new("oracle_camera")
     cam_data.type = "ORTHO"
     cam_data.ortho_scale = float(max(columns, rows))
@@ -166,10 +172,10 @@ def render_variants(variants: list) -> list:
     scene.view_settings.exposure = 0.0
     scene.view_settings.gamma = 1.0
     layer = scene.view_layers[0]
-    for name in VALUE_AOVS:
+    for name in value_aovs:
         aov = layer.aovs.add()
         aov.name, aov.type = name, "VALUE"
-    for name in COLOR_AOVS + (INDEX_AOV,):
+    for name in tuple(color_aovs) + (INDEX_AOV,):
         aov = layer.aovs.add()
         aov.name, aov.type = name, "COLOR"
     settings = render.image_settings
@@ -203,12 +209,19 @@ def render_variants(variants: list) -> list:
         raise KeyError(f"{aov}.{suffix} not in {list(planes)}")
 
     index_rgb = np.stack([channel(INDEX_AOV, c) for c in "RGB"], axis=-1).reshape(-1, 3)
-    values = {name: channel(name, "X").reshape(-1) for name in VALUE_AOVS}
-    colors = {name: np.stack([channel(name, c) for c in "RGB"], axis=-1).reshape(-1, 3) for name in COLOR_AOVS}
+    values = {name: channel(name, "X").reshape(-1) for name in value_aovs}
+    colors = {name: np.stack([channel(name, c) for c in "RGB"], axis=-1).reshape(-1, 3) for name in color_aovs}
+    # pixel centres in world space: the camera sees columns x rows unit cells, BLOCK pixels each
+    # (ortho_scale spans the larger dimension), image row 0 at the top
+    rows_px, cols_px = np.mgrid[0:render.resolution_y, 0:render.resolution_x]
+    pixel_world = np.column_stack([(cols_px.reshape(-1) + 0.5) / BLOCK,
+                                   1.0 - (rows_px.reshape(-1) + 0.5) / BLOCK,
+                                   np.zeros(rows_px.size)])
     results = []
     for index, variant in enumerate(variants):
         mask = index_rgb[:, 2] == index + 1
-        entry = {"i": index_rgb[mask, 0].astype(np.int64), "j": index_rgb[mask, 1].astype(np.int64)}
+        entry = {"i": index_rgb[mask, 0].astype(np.int64), "j": index_rgb[mask, 1].astype(np.int64),
+                 "pixel_world": pixel_world[mask]}
         entry.update({name: v[mask] for name, v in values.items()})
         entry.update({name: c[mask] for name, c in colors.items()})
         if mask.sum() != BLOCK * BLOCK:

@@ -542,21 +542,23 @@ def _mapping(regs, kind, v, loc, rot, scl, out):
 
 @stage_kernel
 def _map_range(kind, value, fmin, fmax, tmin, tmax, steps, clamp):
-    """Map Range, float (C5 svm/map_range.h svm_node_map_range; its clamp is MapRangeNode::expand's
-    range clamp, only for Linear and Stepped)."""
+    """Map Range, float (C5 svm/map_range.h svm_node_map_range). Its clamp is the Clamp node (range
+    type) that MapRangeNode::expand (scene/shader_nodes.cpp) puts after it for every interpolation
+    type, so it also clamps the 0 of an empty from-range."""
     if fmax == fmin:
-        return 0.0
-    if kind == 0:
-        f = (value - fmin) / (fmax - fmin)
-    elif kind == 1:
-        f = (value - fmin) / (fmax - fmin)
-        f = math.floor(f * (steps + 1.0)) / steps if steps > 0.0 else 0.0
-    elif kind == 2:
-        f = 1.0 - _smoothstep(fmax, fmin, value) if fmin > fmax else _smoothstep(fmin, fmax, value)
+        result = 0.0
     else:
-        f = 1.0 - _smootherstep(fmax, fmin, value) if fmin > fmax else _smootherstep(fmin, fmax, value)
-    result = tmin + f * (tmax - tmin)
-    if clamp and kind <= 1:
+        if kind == 0:
+            f = (value - fmin) / (fmax - fmin)
+        elif kind == 1:
+            f = (value - fmin) / (fmax - fmin)
+            f = math.floor(f * (steps + 1.0)) / steps if steps > 0.0 else 0.0
+        elif kind == 2:
+            f = 1.0 - _smoothstep(fmax, fmin, value) if fmin > fmax else _smoothstep(fmin, fmax, value)
+        else:
+            f = 1.0 - _smootherstep(fmax, fmin, value) if fmin > fmax else _smootherstep(fmin, fmax, value)
+        result = tmin + f * (tmax - tmin)
+    if clamp:
         result = _clamp(result, tmax, tmin) if tmin > tmax else _clamp(result, tmin, tmax)
     return result
 
@@ -687,20 +689,24 @@ def run_program(code, init, tables, regs, frame, attributes, world_to_index, px,
             for c in range(3):
                 regs[o + c] = _ramp_lookup(tables, code[a], 257, 4, c, f, code[a + 1] != 0, False)
             regs[code[a + 4]] = _ramp_lookup(tables, code[a], 257, 4, 3, f, code[a + 1] != 0, False)
-        elif op == OP_CURVE_FLOAT:  # svm_node_curve: f remapped to the curve's x range, extrapolated
-            lo, hi = regs[code[a + 2]], regs[code[a + 3]]
-            x = _safe_divide(regs[code[a + 5]] - lo, hi - lo)
-            y = _ramp_lookup(tables, code[a], code[a + 1], 1, 0, x, True, True)
-            fac = regs[code[a + 4]]
-            regs[code[a + 6]] = (1.0 - fac) * regs[code[a + 5]] + fac * y
-        elif op == OP_CURVE_RGB:  # svm_node_rgb_curves: tables of RGBA (per-channel curves)
-            lo, hi = regs[code[a + 2]], regs[code[a + 3]]
-            fac = regs[code[a + 4]]
-            i, o = code[a + 5], code[a + 6]
+        elif op == OP_CURVE_FLOAT:  # svm_node_curve: the value's position in [min_x, max_x] looked up
+            size, extrapolate = code[a + 1], code[a + 2] != 0
+            lo, hi = regs[code[a + 3]], regs[code[a + 4]]
+            v = regs[code[a + 6]]
+            # Cycles divides by the range unguarded; an empty range (all points at one x) reads the
+            # first entry here instead of inf / NaN
+            y = _ramp_lookup(tables, code[a], size, 1, 0, _safe_divide(v - lo, hi - lo), True, extrapolate)
+            fac = regs[code[a + 5]]
+            regs[code[a + 7]] = (1.0 - fac) * v + fac * y
+        elif op == OP_CURVE_RGB:  # svm_node_curves: each channel through its column of the table
+            size, extrapolate = code[a + 1], code[a + 2] != 0
+            lo, hi = regs[code[a + 3]], regs[code[a + 4]]
+            fac = regs[code[a + 5]]
+            i, o = code[a + 6], code[a + 7]
             for c in range(3):
-                x = _safe_divide(regs[i + c] - lo, hi - lo)
-                y = _ramp_lookup(tables, code[a], code[a + 1], 4, c, x, True, True)
-                regs[o + c] = (1.0 - fac) * regs[i + c] + fac * y
+                v = regs[i + c]
+                y = _ramp_lookup(tables, code[a], size, 3, c, _safe_divide(v - lo, hi - lo), True, extrapolate)
+                regs[o + c] = (1.0 - fac) * v + fac * y
         elif op == OP_SEPARATE3:
             i = code[a + 1]
             x, y, z = regs[i], regs[i + 1], regs[i + 2]

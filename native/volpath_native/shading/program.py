@@ -82,9 +82,13 @@ OP_MIX_VECTOR = define("MIX_VECTOR", 6, "clamp_factor#", "factor3", "a3", "b3", 
 OP_MIX_COLOR = define("MIX_COLOR", 7, "blend#", "clamp_factor#", "clamp_result#", "factor", "a3", "b3", "out3")
 # Colour ramp (svm/ramp.h rgb_ramp_lookup): table offset# of 257 RGBA entries, interpolate#.
 OP_COLOR_RAMP = define("COLOR_RAMP", 8, "table#", "interpolate#", "factor", "out_color3", "out_alpha")
-# Float / RGB / Vector curves (svm/ramp.h, curves.h): table offset#, size#, range min/max registers.
-OP_CURVE_FLOAT = define("CURVE_FLOAT", 9, "table#", "size#", "min_x", "max_x", "factor", "value", "out")
-OP_CURVE_RGB = define("CURVE_RGB", 10, "table#", "size#", "min_x", "max_x", "factor", "color3", "out3")
+# Float Curve (svm/ramp.h svm_node_curve) and RGB / Vector Curves (svm_node_curves): a table of
+# size# entries (1 float, or 3 for RGB / Vector) at offset#, sampled over [min_x, max_x] as Blender's
+# sync bakes it (intern/cycles/blender/util.h curvemapping_*_to_array); extrapolate# 0/1.
+OP_CURVE_FLOAT = define("CURVE_FLOAT", 9, "table#", "size#", "extrapolate#", "min_x", "max_x", "factor", "value",
+                        "out")
+OP_CURVE_RGB = define("CURVE_RGB", 10, "table#", "size#", "extrapolate#", "min_x", "max_x", "factor", "color3",
+                      "out3")
 # Separate / combine
 OP_SEPARATE3 = define("SEPARATE3", 11, "mode#", "in3", "out_x", "out_y", "out_z")  # mode#: 0 xyz/rgb, 1 hsv, 2 hsl
 OP_COMBINE3 = define("COMBINE3", 12, "mode#", "x", "y", "z", "out3")

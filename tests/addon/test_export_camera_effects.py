@@ -1,0 +1,187 @@
+"""Depth of field, panoramic cameras and motion blur exported as Cycles syncs them
+(intern/cycles/blender/camera.cpp, blender/sync.cpp sync_motion), with Cycles' values and a
+warning naming the camera for the numbers Cycles corrects."""
+import math
+
+import bpy
+import numpy as np
+import pytest
+
+import volpath_native as vp
+from addon_scenes import add_mesh, export
+
+
+def _camera(sc):
+    return export(sc)[0].camera
+
+
+def test_depth_of_field_from_f_stop(scene):
+    data = scene.camera.data
+    data.lens = 50.0
+    data.dof.use_dof = True
+    data.dof.aperture_fstop = 2.8
+    data.dof.focus_distance = 4.0
+    data.dof.aperture_blades = 6
+    data.dof.aperture_rotation = 0.3
+    data.dof.aperture_ratio = 2.0
+    camera, warnings = export(scene)
+    camera = camera.camera
+    assert camera.aperture_size == pytest.approx(0.05 / (2 * 2.8))  # lens / (2 F-stop), metres
+    assert camera.focus_distance == pytest.approx(4.0)
+    assert (camera.aperture_blades, camera.aperture_ratio) == (6, pytest.approx(2.0))
+    assert camera.aperture_rotation == pytest.approx(0.3)
+    assert not [w for w in warnings if "camera" in w]
+
+
+def test_depth_of_field_off_is_a_pinhole(scene):
+    scene.camera.data.dof.use_dof = False
+    assert _camera(scene).aperture_size == 0.0
+
+
+def test_orthographic_aperture_is_one_over_two_f_stops(scene):
+    data = scene.camera.data
+    data.type = "ORTHO"
+    data.dof.use_dof = True
+    data.dof.aperture_fstop = 4.0
+    assert _camera(scene).aperture_size == pytest.approx(1.0 / 8.0)
+
+
+def test_focus_object_distance_along_the_view_axis(scene):
+    scene.camera.data.dof.use_dof = True
+    target = add_mesh(scene, "Target", location=(1.5, 2.0, -0.7))  # camera at (0, -6, 0) looks along +Y
+    scene.camera.data.dof.focus_object = target
+    assert _camera(scene).focus_distance == pytest.approx(8.0)
+
+
+def test_zero_f_stop_and_focus_take_cycles_values_with_a_warning(scene):
+    data = scene.camera.data
+    data.dof.use_dof = True
+    data.dof.aperture_fstop = 0.0
+    data.dof.focus_distance = 0.0
+    exported, warnings = export(scene)
+    assert exported.camera.aperture_size == pytest.approx(data.lens * 1e-3 / 2e-5)
+    assert exported.camera.focus_distance == pytest.approx(1e-5)
+    assert any("'Camera'" in w and "F-stop" in w for w in warnings)
+    assert any("'Camera'" in w and "focus distance" in w for w in warnings)
+
+
+def test_focus_object_that_is_the_camera(scene):
+    scene.camera.data.dof.use_dof = True
+    scene.camera.data.dof.focus_object = scene.camera
+    exported, warnings = export(scene)
+    assert exported.camera.focus_distance == pytest.approx(1e-5)
+    assert any("camera 'Camera'" in w and "focus object 'Camera'" in w for w in warnings)
+
+
+@pytest.mark.parametrize("blender_type, native_type", [
+    ("EQUIRECTANGULAR", "equirectangular"), ("FISHEYE_EQUIDISTANT", "fisheye_equidistant"),
+    ("FISHEYE_EQUISOLID", "fisheye_equisolid"), ("MIRRORBALL", "mirrorball"),
+    ("CENTRAL_CYLINDRICAL", "central_cylindrical")])
+def test_panoramic_types(scene, blender_type, native_type):
+    data = scene.camera.data
+    data.type = "PANO"
+    data.panorama_type = blender_type
+    data.latitude_min, data.latitude_max = -1.0, 1.2
+    data.longitude_min, data.longitude_max = -2.0, 2.5
+    data.fisheye_fov, data.fisheye_lens = 2.5, 8.0
+    if hasattr(data, "central_cylindrical_radius"):
+        data.central_cylindrical_range_v_min, data.central_cylindrical_range_v_max = -2.0, 3.0
+        data.central_cylindrical_radius = 2.0
+    camera = _camera(scene)
+    assert camera.projection == "panoramic" and camera.panorama_type == native_type
+    assert (camera.latitude_min, camera.latitude_max) == pytest.approx((-1.0, 1.2))
+    assert (camera.longitude_min, camera.longitude_max) == pytest.approx((-2.0, 2.5))
+    assert (camera.fisheye_fov, camera.fisheye_lens) == pytest.approx((2.5, 8.0))
+    if hasattr(data, "central_cylindrical_radius"):
+        assert (camera.cylinder_v_min, camera.cylinder_v_max) == pytest.approx((-1.0, 1.5))  # over the radius
+
+
+def test_unsupported_panorama_is_a_clear_error(scene):
+    scene.camera.data.type = "PANO"
+    scene.camera.data.panorama_type = "FISHEYE_LENS_POLYNOMIAL"
+    with pytest.raises(vp.SceneError, match="camera 'Camera'.*FISHEYE_LENS_POLYNOMIAL"):
+        export(scene)
+
+
+def _animate_camera(scene, start=(0.0, -6.0, 0.0), end=(2.0, -6.0, 0.0)):
+    cam = scene.camera
+    scene.frame_set(1)
+    cam.location = start
+    cam.keyframe_insert("location", frame=1)
+    cam.location = end
+    cam.keyframe_insert("location", frame=3)
+    _make_linear(cam)
+    scene.frame_set(2)
+
+
+def _make_linear(obj):
+    action = obj.animation_data.action
+    curves = action.fcurves if hasattr(action, "fcurves") else [c for layer in action.layers for strip in layer.strips
+                                                                for bag in strip.channelbags for c in bag.fcurves]
+    for curve in curves:
+        for point in curve.keyframe_points:
+            point.interpolation = "LINEAR"
+
+
+@pytest.mark.parametrize("position, centre", [("CENTER", 2.0), ("START", 2.25), ("END", 1.75)])
+def test_camera_motion_steps_over_the_shutter(scene, position, centre):
+    _animate_camera(scene)
+    scene.render.use_motion_blur = True
+    scene.render.motion_blur_shutter = 0.5
+    scene.render.motion_blur_position = position
+    camera, warnings = export(scene)
+    camera = camera.camera
+    # 3 steps (Cycles' default 1 motion step: 2 << 0 + 1) at centre - 0.25, centre, centre + 0.25 frames;
+    # the camera moves 1 unit along x per frame from x = 0 at frame 1.
+    xs = [m[0, 3] for m in camera.motion_transforms]
+    np.testing.assert_allclose(xs, [centre - 1.25, centre - 1.0, centre - 0.75], atol=1e-5)
+    assert camera.camera_to_world[0, 3] == pytest.approx(centre - 1.0, abs=1e-5)
+    assert (scene.frame_current, scene.frame_subframe) == (2, 0.0)  # the frame comes back
+    assert not any("move during the shutter" in w for w in warnings)
+
+
+def test_moving_objects_are_named(scene):
+    scene.render.use_motion_blur = True
+    box = add_mesh(scene, "Mover")
+    scene.frame_set(1)
+    box.keyframe_insert("location", frame=1)
+    box.location = (0.0, 0.0, 3.0)
+    box.keyframe_insert("location", frame=3)
+    scene.frame_set(2)
+    warnings = export(scene)[1]
+    assert any("'Mover'" in w and "move during the shutter" in w for w in warnings)
+
+
+def test_zero_shutter_warns_and_does_not_move(scene):
+    _animate_camera(scene)
+    scene.render.use_motion_blur = True
+    scene.render.motion_blur_shutter = 0.0
+    camera, warnings = export(scene)
+    xs = [m[0, 3] for m in camera.camera.motion_transforms]
+    np.testing.assert_allclose(xs, 1.0, atol=1e-6)
+    assert any("camera 'Camera'" in w and "shutter of 0" in w for w in warnings)
+
+
+def test_shutter_curve_and_rolling_shutter(scene):
+    render = scene.render
+    render.use_motion_blur = True
+    points = render.motion_blur_shutter_curve.curves[0].points
+    points[0].location = (0.0, 0.0)
+    points[-1].location = (1.0, 1.0)
+    render.motion_blur_shutter_curve.update()
+    if not hasattr(scene, "cycles"):
+        pytest.skip("Cycles is not registered")
+    scene.cycles.rolling_shutter_type = "TOP"
+    scene.cycles.rolling_shutter_duration = 0.3
+    camera = _camera(scene)
+    assert len(camera.shutter_curve) == 256
+    assert camera.shutter_curve[0] == pytest.approx(0.0, abs=1e-6)
+    assert camera.shutter_curve[-1] == pytest.approx(1.0, abs=1e-6)
+    assert camera.rolling_shutter and camera.rolling_shutter_duration == pytest.approx(0.3)
+
+
+def test_motion_blur_off_has_no_motion(scene):
+    _animate_camera(scene)
+    scene.render.use_motion_blur = False
+    camera = _camera(scene)
+    assert camera.motion_transforms == [] and camera.shutter_curve == []

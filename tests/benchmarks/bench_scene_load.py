@@ -1,0 +1,120 @@
+"""Benchmark: a big mesh's load time and memory, VolPath against Cycles (not collected by pytest).
+
+Suzanne with a Subdivision Surface modifier (level 5: ~1M triangles, 6: ~4M), smooth shaded, a
+point light, 64x64 at 1 sample. Each engine renders the same scene in its own process (F12 via
+bpy.ops.render.render): wall time of the render call (which includes evaluating the modifier,
+exporting and building the BVH), peak resident memory above what the process held before the
+render, and for VolPath the export (depsgraph -> arrays) and scene build (Accelerator: tables and
+Embree BVH) separately. Kernels are loaded before the clock starts.
+
+    python tests/benchmarks/bench_scene_load.py [--level 5] [--samples 1]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _rss_bytes() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def child(engine: str, level: int, samples: int) -> dict:
+    sys.path.insert(0, str(ROOT))
+    import bpy
+
+    import addon
+    addon.register()
+    bpy.ops.wm.read_homefile(use_empty=True)
+    sc = bpy.context.scene
+    sc.render.engine = engine
+    sc.render.resolution_x = sc.render.resolution_y = 64
+    sc.render.resolution_percentage = 100
+    if engine == "VOLPATH":
+        sc.volpath.samples = samples
+        import volpath_native
+        volpath_native.warm_up()  # kernels ready before the clock starts
+    else:
+        sc.cycles.samples = samples
+        sc.cycles.device = "CPU"
+        sc.cycles.use_denoising = False
+    bpy.ops.mesh.primitive_monkey_add()
+    obj = bpy.context.active_object
+    modifier = obj.modifiers.new("Subdivision", "SUBSURF")
+    modifier.levels = modifier.render_levels = level
+    bpy.ops.object.shade_smooth()
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.location = (0.0, -4.0, 0.0)
+    cam.rotation_euler = (1.5708, 0.0, 0.0)
+    sc.collection.objects.link(cam)
+    sc.camera = cam
+    lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
+    lamp.location = (0.0, -3.0, 2.0)
+    sc.collection.objects.link(lamp)
+    phases = {}
+    if engine == "VOLPATH":  # time the two load phases inside the render
+        from addon import export as export_package
+        from volpath_native import integrator
+
+        def timed(name, function):
+            def wrapper(*args, **kwargs):
+                start = time.perf_counter()
+                try:
+                    return function(*args, **kwargs)
+                finally:
+                    phases[name] = phases.get(name, 0.0) + time.perf_counter() - start
+            return wrapper
+        export_package.export_scene = timed("export", export_package.export_scene)  # engine imports it per render
+        integrator.Integrator.__init__ = timed("build", integrator.Integrator.__init__)
+    before = _rss_bytes()
+    start = time.perf_counter()
+    bpy.ops.render.render()
+    seconds = time.perf_counter() - start
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    triangles = sum(len(o.evaluated_get(bpy.context.evaluated_depsgraph_get()).data.loop_triangles)
+                    for o in sc.objects if o.type == "MESH")
+    return dict(engine=engine, seconds=seconds, peak_above_start=max(peak - before, 0), triangles=triangles, **phases)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--level", type=int, default=5)
+    parser.add_argument("--samples", type=int, default=1)
+    parser.add_argument("--child", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.child:
+        print("RESULT " + json.dumps(child(args.child, args.level, args.samples)), flush=True)
+        os._exit(0)  # skip Blender's teardown
+    rows = {}
+    for engine in ("CYCLES", "VOLPATH"):
+        proc = subprocess.run([sys.executable, __file__, "--child", engine, "--level", str(args.level),
+                               "--samples", str(args.samples)], capture_output=True, text=True)
+        line = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")]
+        if proc.returncode != 0 or not line:
+            print(f"{engine} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
+            return 1
+        rows[engine] = json.loads(line[0][len("RESULT "):])
+    cycles, volpath = rows["CYCLES"], rows["VOLPATH"]
+    n = volpath["triangles"]
+    print(f"Suzanne, Subdivision level {args.level}: {n / 1e6:.2f}M triangles, 64x64, {args.samples} spp")
+    print(f"  Cycles : render {cycles['seconds']:.2f} s, peak +{cycles['peak_above_start'] / 1e6:.0f} MB "
+          f"({cycles['peak_above_start'] / n:.0f} bytes/triangle)")
+    print(f"  VolPath: render {volpath['seconds']:.2f} s (export {volpath.get('export', 0):.2f} s, "
+          f"scene build {volpath.get('build', 0):.2f} s), peak +{volpath['peak_above_start'] / 1e6:.0f} MB "
+          f"({volpath['peak_above_start'] / n:.0f} bytes/triangle)")
+    print(f"  VolPath / Cycles: time {volpath['seconds'] / cycles['seconds']:.2f}x, "
+          f"memory {volpath['peak_above_start'] / max(cycles['peak_above_start'], 1):.2f}x")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,46 @@
+"""Cameras against Cycles on scenes that need them (the criterion of test_agreement.py): depth of
+field in fog under a spot, camera motion blur in fog, an equirectangular view of a world volume."""
+import importlib
+
+import pytest
+
+from addon.compare import runner
+
+from agreement_checks import assert_engines_agree
+
+RUNS = 8
+SCENES = {"dof_fog_spot": ((32, 32), 256), "motion_blur_fog": ((32, 32), 256), "sun_window_equirect": ((48, 24), 256)}
+
+
+@pytest.mark.agreement
+@pytest.mark.parametrize("example", list(SCENES))
+def test_camera_effects_agree_with_cycles(registered_addon, example, tmp_path):
+    resolution, samples = SCENES[example]
+    scene = importlib.import_module(f"examples.{example}").build(resolution=resolution, samples=samples)
+    result = runner.compare_scene(scene, runner.CompareOptions(samples=samples, runs=RUNS, seed=1))
+    assert_engines_agree(result, example, tmp_path)
+
+
+PLANTED = {"dof_fog_spot": dict(aperture_size=0.0), "motion_blur_fog": dict(motion_transforms=[])}
+
+
+@pytest.mark.agreement
+@pytest.mark.parametrize("example", list(PLANTED))
+def test_without_the_effect_the_engines_disagree(registered_addon, example):
+    """The criterion sees the effect: VolPath rendering the scene as a pinhole, or without the
+    camera's motion, must fail against Cycles where the full render passes (above)."""
+    from addon.compare import cycles_engine, metrics, volpath_engine
+
+    resolution, samples = SCENES[example]
+    scene = importlib.import_module(f"examples.{example}").build(resolution=resolution, samples=samples)
+    native_scene, warnings = volpath_engine.export(scene, resolution)
+    assert not warnings, warnings
+    for key, value in PLANTED[example].items():
+        setattr(native_scene.camera, key, value)
+    planted = volpath_engine.render_runs(native_scene, runs=RUNS, samples=samples // RUNS, base_seed=1)
+    bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
+    cycles = cycles_engine.render_runs(scene, runs=RUNS, samples=samples // RUNS, base_seed=101, bounces=bounces,
+                                       resolution=resolution)
+    comparison = metrics.compare_runs(metrics.run_statistics([r.image for r in planted]),
+                                      metrics.run_statistics([r.image for r in cycles]))
+    assert not comparison.passed, comparison.summary()
