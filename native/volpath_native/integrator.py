@@ -27,7 +27,7 @@ from .lights import LightSet
 from .media import MediaTable
 from .sampling import seed_key
 from .scene import Scene
-from .shading.images import empty_image_table, image_table, table_nbytes
+from .shading.images import empty_image_table, image_table
 from .surface_programs import new_surface_scratch, surface_program_tables
 
 
