@@ -56,6 +56,9 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             return
         for message in warnings:
             self.report({"WARNING"}, message)
+        if scene.images:  # texture memory, counted once per image (shading/images.py)
+            self.report({"INFO"}, f"VolPath: {len(scene.images)} image textures, "
+                                  f"{sum(image.nbytes for image in scene.images) / 2 ** 20:.1f} MiB")
         export_seconds = time.perf_counter() - started
 
         layer_name = depsgraph.view_layer.name

@@ -88,7 +88,8 @@ def _export(depsgraph, camera_object, reporter, cancel, frame_set):
         meshes += procedural_media.world_medium_box(table.procedural, meshes, anchors, world_datablock.name_full)
 
     return vp.Scene(camera=camera, film=film, meshes=meshes, materials=table.materials,
-                    media=table.media, lights=scene_lights, world=world, settings=export_settings(scene))
+                    media=table.media, lights=scene_lights, world=world, settings=export_settings(scene),
+                    images=table.images.images)
 
 
 def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=None):
@@ -128,21 +129,23 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=
             continue
         if abs(np.linalg.det(matrix[:3, :3])) < 1e-30:
             continue  # scaled to nothing: invisible in Cycles too
-        # Meshes shared by instances are triangulated once; other types have no shared data.
-        key = obj.data.as_pointer() if obj.type == "MESH" and obj.data is not None else None
-        if key is not None and key in triangulated:
-            local = triangulated[key]
-        else:
-            local = geometry.triangulate(obj)
-            if key is not None:
-                triangulated[key] = local
-        if local is None:
-            continue
         if material_override is not None:  # View Layer > Override > Material replaces every slot
             slot_materials = np.array([table.index_of(material_override)], dtype=np.int32)
         else:
             slot_materials = np.array([table.index_of(slot.material) for slot in obj.material_slots]
                                       or [table.index_of(None)], dtype=np.int32)
+        # per-corner attributes (UV maps, colours, tangents) the slots' surface programs read
+        requests = frozenset().union(*[table.corner_requests.get(int(m), ()) for m in slot_materials])
+        # Meshes shared by instances are triangulated once; other types have no shared data.
+        key = obj.data.as_pointer() if obj.type == "MESH" and obj.data is not None else None
+        if key is not None and (key, requests) in triangulated:
+            local = triangulated[(key, requests)]
+        else:
+            local = geometry.triangulate(obj, requests, reporter)
+            if key is not None:
+                triangulated[(key, requests)] = local
+        if local is None:
+            continue
         budget.add(obj.name, len(local.triangles))  # SceneError before the memory runs out
         if instance.is_instance:
             parent = instance.parent.name if instance.parent is not None else "instance"

@@ -26,12 +26,15 @@ class LocalMesh:
     triangles: np.ndarray  # (T, 3) int32
     material_slots: np.ndarray  # (T,) int32
     corner_normals: Optional[np.ndarray]  # (T, 3, 3) float32 or None (flat)
+    corner_attributes: dict = None  # name -> (T, 3, k) float32, object space (corner_attributes.py)
+    generated: Optional[np.ndarray] = None  # (3, 4) object -> Generated texture space
 
 
-def triangulate(obj) -> Optional[LocalMesh]:
+def triangulate(obj, requests=frozenset(), reporter=None) -> Optional[LocalMesh]:
     """The evaluated object's geometry as triangles (None when it has none). Every array is read
     with one foreach_get into a preallocated array (compat: attribute block copies where Blender
-    has them); only the triangles' corner list goes through the slower loop-triangle collection."""
+    has them); only the triangles' corner list goes through the slower loop-triangle collection.
+    `requests` names the per-corner attributes surface programs read (volpath_native.surface_programs)."""
     mesh = obj.to_mesh()
     try:
         if mesh is None:
@@ -50,7 +53,14 @@ def triangulate(obj) -> Optional[LocalMesh]:
         if smooth.any() or mesh.has_custom_normals:
             # Corner normals hold the face normal on flat faces (and sharp edges where Cycles splits).
             corner_normals = compat.triangle_corner_normals(mesh, smooth, tri_loops, tri_faces, triangles)
-        return LocalMesh(compat.mesh_positions(mesh), triangles, material_slots, corner_normals)
+        positions = compat.mesh_positions(mesh)
+        attributes = {}
+        if requests:
+            from .corner_attributes import corner_attribute_arrays
+            attributes = corner_attribute_arrays(obj, mesh, requests, reporter)
+        from .procedural_media import generated_transform
+        generated = np.asarray(generated_transform(obj, positions), np.float64).reshape(3, 4)
+        return LocalMesh(positions, triangles, material_slots, corner_normals, attributes, generated)
     finally:
         obj.to_mesh_clear()
 
@@ -67,12 +77,18 @@ def to_world(name: str, local: LocalMesh, matrix_world: np.ndarray, slot_materia
         normals = corner_normals.reshape(-1, 3) @ np.linalg.inv(linear).astype(np.float32)
         normals /= np.maximum(np.sqrt(np.einsum("ij,ij->i", normals, normals)), 1e-30)[:, None]
         corner_normals = normals.reshape(-1, 3, 3)
+    attributes = dict(local.corner_attributes or {})
     if np.linalg.det(linear) < 0.0:
         # A mirroring transform flips the winding: swap two corners to keep normals outward.
         triangles = triangles[:, [0, 2, 1]]
         if corner_normals is not None:
             corner_normals = corner_normals[:, [0, 2, 1]]
+        attributes = {name: values[:, [0, 2, 1]] for name, values in attributes.items()}
+    frame = None
+    if local.generated is not None:  # Texture Coordinate Object / Generated / Normal of surfaces
+        frame = np.stack([np.linalg.inv(matrix_world)[:3], local.generated])
     # Blender clamps out-of-range material indices to the last slot.
     slots = np.clip(local.material_slots, 0, len(slot_materials) - 1)
     return vp.Mesh(name=name, vertices=vertices, triangles=triangles,
-                   material_ids=slot_materials[slots], corner_normals=corner_normals)
+                   material_ids=slot_materials[slots], corner_normals=corner_normals, corner_attributes=attributes,
+                   object_frame=frame)

@@ -12,6 +12,7 @@ import numpy as np
 import volpath_native as vp
 from volpath_native.program_medium import ProgramMedium
 from volpath_native.shading import program as P
+from volpath_native.shading.images import empty_image_table
 from volpath_native.shading.interpreter import run_program_many
 
 
@@ -44,7 +45,7 @@ def phase_of(program, frame: np.ndarray, points: np.ndarray, label: str, reporte
     attributes = np.zeros((1, 1, 1, 1), np.float32) if attributes is None else attributes
     world_to_index = np.zeros((3, 4)) if world_to_index is None else np.ascontiguousarray(world_to_index[:3])
     run_program_many(program.code, program.init, program.tables, regs, np.ascontiguousarray(frame), attributes,
-                     world_to_index, points, out, P.R_LOBES, out.shape[1])
+                     world_to_index, points, out, P.R_LOBES, out.shape[1], empty_image_table())
     lobes = out.reshape(len(points), P.MAX_LOBES, P.LOBE_STRIDE)
     weights, gs = lobes[..., :3].mean(axis=2).ravel(), lobes[..., 3].ravel()
     used = weights > 0

@@ -29,7 +29,9 @@ from volpath_native.bsdfs.nodes import SurfaceNode
 from .. import compat
 from . import validate
 from .procedural_media import ProceduralMedia
+from .images import ImageRegistry
 from .shader_compiler import ShaderCompiler
+from .surface_programs import SurfaceProgramCompiler
 from .surfaces import surface_terms
 
 # Cycles clamps Henyey-Greenstein's g to +-(1 - 1e-3) (kernel/closure/volume_henyey_greenstein.h).
@@ -76,9 +78,11 @@ def _shader_node(socket):
 class NodeReader:
     """Reads constant inputs of one material's nodes, warning about what it cannot evaluate."""
 
-    def __init__(self, owner: str, reporter: Reporter):
+    def __init__(self, owner: str, reporter: Reporter, program=None):
         self.owner = owner  # e.g. "material 'Fog'"
         self.reporter = reporter
+        # surface_programs.SurfaceProgramCompiler: varying BSDF inputs are compiled, not warned about
+        self.program = program
 
     def warn(self, node, message: str):
         self.reporter.warn(f"{self.owner}: node '{node.name}' ({node.bl_idname}): {message}")
@@ -91,6 +95,8 @@ class NodeReader:
         if source is not None:
             if source.node.type in ("RGB", "VALUE"):  # constants feeding the input
                 value = _as_value(source.default_value)
+            elif self.program is not None and self.program.handles(node, socket):
+                pass  # evaluated per hit by the material's surface program; this is its fallback
             else:
                 self.warn(node, f"input '{socket.name}' is driven by '{source.node.name}' "
                                 f"({source.node.bl_idname}), which VolPath cannot evaluate; "
@@ -239,6 +245,8 @@ class MaterialTable:
         self._index: dict = {}
         # materials whose volume varies over space: a medium per object (procedural_media.py)
         self.procedural = ProceduralMedia(self)
+        self.images = ImageRegistry(reporter)  # Scene.images, one copy per image
+        self.corner_requests: dict = {}  # material index -> per-corner attribute names its program reads
 
     def index_of(self, material) -> int:
         """Index into `materials` for a Blender material (None: Cycles' default grey diffuse)."""
@@ -287,9 +295,18 @@ class MaterialTable:
             # surface (it does not count against the transparent bounce limit; README).
             return vp.Material(name=name, surface="null", base_color=np.zeros(3), medium=medium)
         # Nothing connected to Surface (and no volume) is an opaque black surface in Cycles.
+        reader.program = SurfaceProgramCompiler(f"material '{name}'", self.reporter, self.images)
         surface = surface_terms(reader, _shader_node, surface_socket)
+        program = None
+        try:
+            program = reader.program.program(surface.nodes, surface.bindings)
+        except (KeyError, ValueError, TypeError, AttributeError) as error:
+            self.reporter.warn(f"material '{name}': its textured inputs could not be compiled ({error}); "
+                               "the inputs' own values are used")
+        if program is not None:
+            self.corner_requests[len(self.materials)] = reader.program.requested_attributes()
         return vp.Material(name=name, surface="diffuse", base_color=np.zeros(3), emission=surface.emission,
-                           medium=medium, surface_nodes=surface.nodes)
+                           medium=medium, surface_nodes=surface.nodes, surface_program=program)
 
 
 def _volume_program_of(owner: str, socket, reporter):

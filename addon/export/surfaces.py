@@ -21,6 +21,7 @@ import numpy as np
 from volpath_native.bsdfs.nodes import SurfaceNode
 
 from .. import compat
+from .surface_programs import scale_bound_weights, scale_weights
 
 # Cycles' surface for objects without a material is a default Principled BSDF (scene/shader.cpp
 # ShaderManager::add_default).
@@ -32,16 +33,29 @@ _DISTRIBUTIONS = {"MULTI_GGX": "multi_ggx", "GGX": "ggx", "BECKMANN": "beckmann"
 
 @dataclass
 class SurfaceTerms:
-    """A weighted list of BSDF nodes and the emitted radiance (W/(m^2 sr), both faces)."""
+    """A weighted list of BSDF nodes and the emitted radiance (W/(m^2 sr), both faces).
+    bindings: (node index, field, register) of inputs a surface program drives
+    (surface_programs.py); program: that program's compiler, or None (constants only)."""
 
     nodes: list = field(default_factory=list)
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    bindings: list = field(default_factory=list)
+    program: object = None
 
     def scaled(self, w: float) -> "SurfaceTerms":
-        return SurfaceTerms([_reweighted(n, n.weight * w) for n in self.nodes], self.emission * w)
+        return SurfaceTerms([_reweighted(n, n.weight * w) for n in self.nodes], self.emission * w,
+                            scale_bound_weights(self.program, self.bindings, w), self.program)
+
+    def weighted_by(self, program, factor_reg: int) -> "SurfaceTerms":
+        """Every node's weight times a register (a varying Mix Shader factor)."""
+        return SurfaceTerms(list(self.nodes), self.emission, scale_weights(program, self.nodes, self.bindings,
+                                                                           factor_reg), program)
 
     def __add__(self, other: "SurfaceTerms") -> "SurfaceTerms":
-        return SurfaceTerms(self.nodes + other.nodes, self.emission + other.emission)
+        shift = len(self.nodes)
+        return SurfaceTerms(self.nodes + other.nodes, self.emission + other.emission,
+                            self.bindings + [(i + shift, f, r) for i, f, r in other.bindings],
+                            self.program or other.program)
 
 
 def _reweighted(node: SurfaceNode, weight: float) -> SurfaceNode:
@@ -62,8 +76,11 @@ def _distribution(reader, node, allowed=("multi_ggx", "ggx", "beckmann")) -> str
 
 
 def _warn_linked(reader, node, names):
+    program = getattr(reader, "program", None)
     for name in names:
         socket = node.inputs.get(name)
+        if name == "Normal" and program is not None and program.bind_normal(node, name):
+            continue  # compiled: the closures' normal (surface_programs.py)
         if socket is not None and socket.is_linked:
             reader.warn(node, f"input '{name}' is linked; VolPath does not evaluate normal/tangent "
                               "inputs yet and uses the interpolated normal")
@@ -88,6 +105,19 @@ def surface_terms(reader, shader_node_of, socket) -> SurfaceTerms:
         return (surface_terms(reader, shader_node_of, node.inputs[0])
                 + surface_terms(reader, shader_node_of, node.inputs[1]))
     if kind == "MIX_SHADER":
+        program = getattr(reader, "program", None)
+        if program is not None and program.is_varying(node.inputs[0]):
+            # a varying factor: the node weights become program registers (svm_node_mix_closure)
+            a, b = program.mix_weights(node)
+            first = surface_terms(reader, shader_node_of, node.inputs[1])
+            second = surface_terms(reader, shader_node_of, node.inputs[2])
+            if np.any(first.emission > 0) or np.any(second.emission > 0):
+                reader.warn(node, "emission under a varying Mix Shader factor is mixed with the factor's own "
+                                  "value (VolPath's emitters are constant per material)")
+            f = float(np.clip(reader.scalar(node, node.inputs[0]), 0.0, 1.0))
+            first, second = first.weighted_by(program, a), second.weighted_by(program, b)
+            first.emission, second.emission = first.emission * (1.0 - f), second.emission * f
+            return first + second
         f = float(np.clip(reader.scalar(node, node.inputs[0]), 0.0, 1.0))
         return (surface_terms(reader, shader_node_of, node.inputs[1]).scaled(1.0 - f)
                 + surface_terms(reader, shader_node_of, node.inputs[2]).scaled(f))
@@ -101,7 +131,12 @@ def surface_terms(reader, shader_node_of, socket) -> SurfaceTerms:
     if converter is None:
         reader.warn(node, f"unsupported surface shader; rendered as a {DEFAULT_GREY} grey diffuse surface")
         return SurfaceTerms([SurfaceNode.for_kind("diffuse", color=np.full(3, DEFAULT_GREY))])
-    return converter(reader, node)
+    terms = converter(reader, node)
+    program = getattr(reader, "program", None)
+    if program is not None and len(terms.nodes) == 1:
+        terms.program = program
+        program.bind_inputs(node, terms)
+    return terms
 
 
 def _diffuse(reader, node) -> SurfaceTerms:

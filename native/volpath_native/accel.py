@@ -83,6 +83,8 @@ class Accelerator:
         self.bounds = (lo, hi)
         # Ray offset scale: relative to the scene extent, so it works in mm and km scenes.
         self.epsilon = 1e-5 * max(1.0, float(np.abs(np.concatenate([lo, hi])).max()))
+        self._meshes = list(meshes)  # per-corner attributes and frames (surface programs)
+        self._kept = kept_meshes
         self._corners = None
         self._embree = None
         if n:
@@ -90,6 +92,35 @@ class Accelerator:
             from embreex.mesh_construction import TriangleMesh
             self._embree = rtcore_scene.EmbreeScene()
             TriangleMesh(self._embree, self.vertices, self.triangles)
+
+    def corner_attributes(self, names) -> tuple:
+        """(T, 3, C) float32 per-corner values of the named attributes for every kept triangle, and
+        {name: (first channel, width)}; meshes without an attribute read 0."""
+        widths = {}
+        for name in names:
+            widths[name] = max([m.corner_attributes[name].shape[2] for m in self._meshes
+                                if name in m.corner_attributes] or [0])
+        channels, offset = {}, 0
+        for name in names:
+            if widths[name]:
+                channels[name] = (offset, widths[name])
+                offset += widths[name]
+        table = np.zeros((max(self.triangle_count, 1), 3, max(offset, 1)), np.float32)
+        row = 0
+        for mesh, keep in self._kept:
+            n = len(mesh.triangles) if keep is None else int(np.count_nonzero(keep))
+            for name, (first, width) in channels.items():
+                values = mesh.corner_attributes.get(name)
+                if values is not None:
+                    table[row:row + n, :, first:first + values.shape[2]] = values if keep is None else values[keep]
+            row += n
+        return table, channels
+
+    def mesh_frames(self) -> np.ndarray:
+        """(n_meshes, 2, 3, 4) world -> object and object -> Generated maps per mesh (Mesh.frame)."""
+        if not self._meshes:
+            return np.zeros((1, 2, 3, 4))
+        return np.ascontiguousarray(np.stack([m.frame() for m in self._meshes]), dtype=np.float64)
 
     def triangle_corners(self, index) -> np.ndarray:
         """(k, 3, 3) float64 corner positions of the triangles `index`."""

@@ -72,6 +72,7 @@ GridTables = namedtuple("GridTables", [
     "registers",          # (r,) float64 scratch, private to one batch (thread)
     "frame",              # (2,3,4) float64 world -> object, object -> generated texture space
     "attributes",         # (nx,ny,nz,c) float32 grid attributes in the padded index space
+    "images",             # shading.images.ImageTable read by image-texture opcodes (empty: none)
 ])
 
 #: Uniform dimensions reserved per stream.
@@ -188,7 +189,7 @@ def program_coefficients(G, x, y, z):
     if not (0.0 <= px <= G.shape[0] - 1 and 0.0 <= py <= G.shape[1] - 1 and 0.0 <= pz <= G.shape[2] - 1):
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     run_program(G.program_code, G.program_init, G.program_tables, G.registers, G.frame, G.attributes,
-                G.world_to_index, x, y, z)
+                G.world_to_index, x, y, z, G.images)
     return closure_coefficients(G.registers)
 
 

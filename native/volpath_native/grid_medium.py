@@ -48,6 +48,7 @@ import numpy as np
 from .grid_kernels import (FLAG_BUDGET, FLAG_MAJORANT, FLAG_MINORANT, TRACKING_BUDGET, GridTables,
                            box_interval_many, coefficients_many, dda_cells1, density_many, track_many)
 from .scene import Mesh, SceneError, rgb
+from .shading.images import empty_image_table
 
 __all__ = ["GridMedium", "FreeFlight", "MajorantTooLowError", "principled_volume_coefficients",
            "volume_object_density_factor", "blackbody_rec709", "blackbody_emission"]
@@ -384,7 +385,7 @@ class GridMedium:
     _NO_GRID = np.zeros((1, 1, 1, 3), dtype=np.float32)
     _NO_PROGRAM = dict(has_program=False, program_code=np.zeros(1, np.int32), program_init=np.zeros(1),
                        program_tables=np.zeros(1), registers=np.zeros(1), frame=np.zeros((2, 3, 4)),
-                       attributes=np.zeros((1, 1, 1, 1), np.float32))
+                       attributes=np.zeros((1, 1, 1, 1), np.float32), images=empty_image_table())
 
     def _program_tables(self) -> dict:
         """The GridTables fields of a shader-program medium (none here: program_medium.py)."""

@@ -27,6 +27,8 @@ from .lights import LightSet
 from .media import MediaTable
 from .sampling import seed_key
 from .scene import Scene
+from .shading.images import empty_image_table, image_table
+from .surface_programs import new_surface_scratch, surface_program_tables
 
 
 class Cancelled(Exception):
@@ -88,9 +90,15 @@ def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable) -> pk.Scen
 
 def _may_pass_shadows(material) -> bool:
     """Whether shadow rays may pass the material's surface (Transparent BSDF, Principled alpha < 1:
-    Cycles' closure_transparent_extinction); glass does not (Cycles 5.0)."""
+    Cycles' closure_transparent_extinction); glass does not (Cycles 5.0). A surface program that
+    drives an alpha or a mix weight may make any hit transparent."""
+    nodes = material.bsdf_nodes()
+    program = getattr(material, "surface_program", None)
+    if program is not None and any(field in ("alpha", "weight") for _, field in program.drives(nodes)) \
+            and any(node.kind in ("transparent", "principled") for node in nodes):
+        return True
     return any(node.weight > 0 and (node.kind == "transparent" or (node.kind == "principled" and node.alpha < 1))
-               for node in material.bsdf_nodes())
+               for node in nodes)
 
 
 class Integrator:
@@ -107,6 +115,8 @@ class Integrator:
         self.crop = crop_window(scene.film)
         self.tables = scene_tables(scene, self.accel, self.media)
         self.surface_nodes = surface_node_table([m.bsdf_nodes() for m in scene.materials])
+        self.images = image_table(scene.images)  # one copy of every image, however many nodes read it
+        self.surface_programs = surface_program_tables(scene.materials, self.accel, self.images)
         self.bsdf_tables = bsdf_tables()
         self.grids = [grid for _, grid in self.media.grid_volumes]
         # shadow rays step through null boundaries and transparent surfaces (closest hits)
@@ -143,6 +153,7 @@ class Integrator:
         buffers = getattr(self._thread_buffers, "buffers", None)
         if buffers is None or buffers.capacity < n:
             buffers = self._thread_buffers.buffers = _Buffers(n, len(self._camera_stack))
+            buffers.surface = new_surface_scratch(self.scene.materials, self.surface_programs)
         return buffers
 
     def _start_paths(self, pixel: np.ndarray, sample: np.ndarray, buffers: "_Buffers"):
@@ -191,9 +202,9 @@ class Integrator:
             hits = self.accel.intersect_raw(o32[:n], d32[:n], t32[:n])
             stats["rays"] += n
             m = pk.shade(self.tables, self.lights.tables, grid_tables, self.surface_nodes, self.bsdf_tables,
-                         buffers.closures, n, iteration, F, I, K, C, hits.t,
+                         buffers.closures, self.surface_programs, buffers.surface, n, iteration, F, I, K, C, hits.t,
                          hits.prim, hits.u, hits.v, L, alive, Q, counter, o32, d32, t32)
-            self._trace_shadows(grid_tables, buffers.closures, Q, m, margin, L, stats, iteration, cancel)
+            self._trace_shadows(grid_tables, buffers, Q, m, margin, L, stats, iteration, cancel)
             n = pk.compact(F, I, K, C, n, alive, o32, d32, t32)
             iteration += 1
         if cancel is not None and cancel():
@@ -204,7 +215,7 @@ class Integrator:
                                    dtype=np.int64)
         return L[:, :3], stats
 
-    def _trace_shadows(self, grid_tables, closures, Q, m, margin, L, stats, iteration, cancel=None):
+    def _trace_shadows(self, grid_tables, buffers, Q, m, margin, L, stats, iteration, cancel=None):
         """Transmittance of queued shadow rays, added to L where the light is reached."""
         if not m:
             return
@@ -220,8 +231,9 @@ class Integrator:
                 raise Cancelled()
             hits = self.accel.intersect_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m])
             stats["shadow_rays"] += m
-            m = pk.shadow_step(self.tables, grid_tables, self.surface_nodes, self.bsdf_tables, closures, Q, m,
-                               hits.t, hits.prim, margin, L, iteration, step)
+            m = pk.shadow_step(self.tables, grid_tables, self.surface_nodes, self.bsdf_tables, buffers.closures,
+                               self.surface_programs, buffers.surface, Q, m, hits.t, hits.prim, hits.u, hits.v,
+                               margin, L, iteration, step)
         # rays still crossing boundaries after the limit count as blocked (Cycles VOLUME_BOUNDS_MAX)
 
 
@@ -333,7 +345,7 @@ def _warm_up_programs(floor, fog, lights):
     program = b.build()
     run_program_many(program.code, program.init, program.tables, np.zeros(program.n_registers),
                      np.zeros((2, 3, 4)), np.zeros((1, 1, 1, 1), np.float32), np.zeros((3, 4)), np.zeros((1, 3)),
-                     np.zeros((1, 4)), P.R_LOBES, 4)
+                     np.zeros((1, 4)), P.R_LOBES, 4, empty_image_table())
     medium = ProgramMedium("warm-up", program, np.eye(4), ([-1, -1, -1], [1, 1, 1]), majorant_resolution=2)
     camera = np.eye(4)
     camera[:3, 3] = [0.0, 0.0, 6.0]

@@ -42,6 +42,7 @@ from .media import (channel_probabilities1, distance_pdf1, emission_integral1, e
 from .mis import mis_weight, power_heuristic
 from .phase import hg_eval1, hg_sample1
 from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, LENS_U_DIM, LENS_V_DIM, SHUTTER_TIME_DIM, path_key1, uniform1
+from .surface_programs import shade_surface_program
 
 # F columns
 O, D, BETA, PREV = 0, 3, 6, 9
@@ -405,11 +406,12 @@ def _russian_roulette(S, F, I, K, p, iteration):
 # The path stage: everything between a closest-hit query and the next one
 # ---------------------------------------------------------------------------------------------
 @stage_kernel
-def shade(S, T, GR, SN, BT, CB, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, alive, Q, stats,
-          o32, d32, t32):
+def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, alive, Q,
+          stats, o32, d32, t32):
     """Advance paths 0..n-1 by one segment: medium (emission, NEE, free flight), lamps crossed,
     escape, volume scattering or surface interaction (SN: the materials' BSDF nodes, BT: BSDF
-    lookup tables, CB: this thread's closure scratch). Shadow rays go to the queue Q; returns its
+    lookup tables, CB: this thread's closure scratch, SP / SPS: surface programs and this thread's
+    scratch for them, surface_programs.py). Shadow rays go to the queue Q; returns its
     length. The next rays of live paths are written to o32, d32, t32. stats: [vertices]
     accumulated."""
     eps = S.epsilon
@@ -537,8 +539,8 @@ def shade(S, T, GR, SN, BT, CB, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u
             _scatter_to(S, F, I, p, x, wo, pdf, VOLUME, S.volume_bounces)
             alive[p] = _russian_roulette(S, F, I, K, p, iteration)
         else:
-            alive[p], n_shadow = _surface(S, T, SN, BT, CB, F, I, K, C, p, iteration, prim, hit_t[p], hit_u[p],
-                                          hit_v[p], L, Q, n_shadow, margin, stats)
+            alive[p], n_shadow = _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, hit_t[p],
+                                          hit_u[p], hit_v[p], L, Q, n_shadow, margin, stats)
         if alive[p]:
             alive[p] = F[p, BETA] > 0.0 or F[p, BETA + 1] > 0.0 or F[p, BETA + 2] > 0.0
         if alive[p]:
@@ -638,7 +640,7 @@ def _shading_normal(S, prim, hu, hv, n_face):
 
 
 @inline_stage_kernel
-def _surface(S, T, SN, BT, CB, F, I, K, C, p, iteration, prim, t, hu, hv, L, Q, n_shadow, margin, stats):
+def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, t, hu, hv, L, Q, n_shadow, margin, stats):
     """Shade a surface hit with its material's closures (bsdfs.closures); returns (continues,
     shadow queue length). Cycles kernel/integrator/shade_surface.h: emission, light sampling
     with MIS, BSDF sampling; a transmission enters/leaves the material's volume
@@ -668,7 +670,13 @@ def _surface(S, T, SN, BT, CB, F, I, K, C, p, iteration, prim, t, hu, hv, L, Q, 
     n_face = _scale3(ng, sign)  # geometric normal on the viewer's side
     ns = _shading_normal(S, prim, hu, hv, n_face)
     wi_view = (-d[0], -d[1], -d[2])
-    count = setup_surface(SN, BT, S.tri_material[prim], wi_view, ns, n_face, not front, CB)
+    nodes, row, n_closure = SN, S.tri_material[prim], ns
+    if SP.any and SP.mat_program[row] >= 0:
+        # textured inputs: this hit's node values in SPS.nodes (material 0 there), and its normal
+        n_closure = shade_surface_program(SP, SPS, SN, row, prim, hu, hv, pb[0], pb[1], pb[2], ns, n_face,
+                                          wi_view, not front)
+        nodes, row = SPS.nodes, 0
+    count = setup_surface(nodes, BT, row, wi_view, n_closure, n_face, not front, CB)
     if count == 0:  # black: absorbs everything
         return False, n_shadow
     above = (pb[0] + n_face[0] * eps, pb[1] + n_face[1] * eps, pb[2] + n_face[2] * eps)
@@ -862,7 +870,7 @@ def shadow_unoccluded(SF, SI, m, blocked, margin, L):
 
 
 @stage_kernel
-def shadow_step(S, GR, SN, BT, CB, Q, m, hit_t, hit_prim, margin, L, iteration, step):
+def shadow_step(S, GR, SN, BT, CB, SP, SPS, Q, m, hit_t, hit_prim, hit_u, hit_v, margin, L, iteration, step):
     """One closest-hit step of shadow rays through null boundaries and transparent surfaces:
     attenuate the segment, stop at opaque geometry (T = 0) or at the light (add contrib x T),
     cross null boundaries (the volume stack and the segment's sigma_t change) and transparent
@@ -889,8 +897,17 @@ def shadow_step(S, GR, SN, BT, CB, Q, m, hit_t, hit_prim, margin, L, iteration, 
             front = _dot3(d, ng) < 0.0
             if not S.tri_null[prim]:
                 n_face = _scale3(ng, 1.0 if front else -1.0)
-                count = setup_surface(SN, BT, S.tri_material[prim], (-d[0], -d[1], -d[2]), n_face, n_face,
-                                      not front, CB)
+                nodes, row, n_closure = SN, S.tri_material[prim], n_face
+                wi = (-d[0], -d[1], -d[2])
+                if SP.any and SP.mat_program[row] >= 0:  # textured alpha / transparency
+                    ns = _shading_normal(S, prim, hit_u[q], hit_v[q], n_face)
+                    x = _get3(SF, q, S_O)
+                    t_hit = hit_t[q]
+                    n_closure = shade_surface_program(SP, SPS, SN, row, prim, hit_u[q], hit_v[q],
+                                                      x[0] + d[0] * t_hit, x[1] + d[1] * t_hit, x[2] + d[2] * t_hit,
+                                                      ns, n_face, wi, not front)
+                    nodes, row = SPS.nodes, 0
+                count = setup_surface(nodes, BT, row, wi, n_closure, n_face, not front, CB)
                 tr = _mul3(tr, surface_transparency(CB, count))
         for c in range(3):
             SF[q, S_CONTRIB + c] *= tr[c]

@@ -27,6 +27,7 @@ from .grid_medium import GridMedium
 from .jit import stage_kernel
 from .sampling import seed_key, uniform1
 from .scene import SceneError
+from .shading.images import empty_image_table
 from .shading.interpreter import closure_coefficients, run_program
 from .shading.program import LOBE_STRIDE, MAX_LOBES, R_LOBES, ShaderProgram
 
@@ -43,7 +44,7 @@ MAJORANT_FLOOR = 1e-3
 
 @stage_kernel
 def _cell_extrema(code, init, tables, regs, frame, attributes, world_to_index, index_to_world, cells, n_axis,
-                  key, max_extinction, max_emission, bad):
+                  key, max_extinction, max_emission, bad, images):
     """Per majorant cell: the largest max-channel sigma_t and |emission| over n_axis^3 stratified
     jittered points (index space cell i spans [i, i + 1] x cell size); bad[0] counts evaluations
     with non-finite or negative coefficients before sanitising."""
@@ -68,7 +69,8 @@ def _cell_extrema(code, init, tables, regs, frame, attributes, world_to_index, i
                             px = m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]
                             py = m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]
                             pz = m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3]
-                            run_program(code, init, tables, regs, frame, attributes, world_to_index, px, py, pz)
+                            run_program(code, init, tables, regs, frame, attributes, world_to_index, px, py, pz,
+                                        images)
                             for q in range(MAX_LOBES):
                                 base = R_LOBES + q * LOBE_STRIDE
                                 for ch in range(3):
@@ -147,6 +149,7 @@ class ProgramMedium(GridMedium):
             raise SceneError(f"program medium '{name}': attributes must be (nx, ny, nz, {n_channels}), "
                              f"got {self.attributes.shape}")
         self._registers = np.zeros(program.n_registers)
+        self.images = empty_image_table()  # image textures inside volumes: not yet bound
         self._flags = np.zeros(3, dtype=np.int64)
         self._violation = np.zeros((2, 5))
         self._stop = np.zeros(1, dtype=np.int64)
@@ -157,7 +160,8 @@ class ProgramMedium(GridMedium):
     def _program_tables(self) -> dict:
         p = self.program
         return dict(has_program=True, program_code=p.code, program_init=p.init, program_tables=p.tables,
-                    registers=self._registers, frame=self.frame, attributes=self.attributes)
+                    registers=self._registers, frame=self.frame, attributes=self.attributes,
+                    images=self.images)
 
     def _build_majorant_grid(self, resolution: int):
         """Sampled per-cell maxima, dilated by one cell, with a margin and a floor (module docstring)."""
@@ -169,7 +173,8 @@ class ProgramMedium(GridMedium):
         p = self.program
         _cell_extrema(p.code, p.init, p.tables, self._registers, self.frame, self.attributes,
                       np.ascontiguousarray(self.world_to_index[:3]), np.ascontiguousarray(self.index_to_world[:3]),
-                      cells, SAMPLES_PER_CELL_AXIS, seed_key(0x5EED), max_extinction, max_emission, bad)
+                      cells, SAMPLES_PER_CELL_AXIS, seed_key(0x5EED), max_extinction, max_emission, bad,
+                      self.images)
         self.invalid_evaluations = int(bad[0])
         # the largest value of the cell and its 26 neighbours (a separable 3x3x3 max filter)
         dilated = max_extinction

@@ -16,6 +16,7 @@ from .camera import crop_window
 from .integrator import Cancelled, Integrator
 from .scene import Scene, SceneError
 from .scene_schema import check_settings
+from .shading.images import table_nbytes
 
 
 @dataclass
@@ -134,6 +135,9 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
     # A round is at least one sample everywhere and roughly a batch per thread.
     per_round = max(1, min(st.samples, (threads * batch) // max(n_pix, 1)))
     stats = {k: 0 for k in _COUNTERS}
+    # image textures, one copy each (shading/images.py)
+    stats["texture_images"] = len(scene.images)
+    stats["texture_bytes"] = table_nbytes(integrator.images)
     budget = np.zeros(len(integrator.grids), dtype=np.int64)  # tracking calls ended, per grid medium
     done = 0
     cancelled = False

@@ -166,6 +166,8 @@ class Material:
     medium: index into Scene.media of the medium inside the closed mesh (-1: none). Entered on a
         front-face hit, left on a back-face hit; for shaded surfaces, on a transmission through
         the surface (glass containing a liquid: Cycles' volume_stack_enter_exit).
+    surface_program: optional surface_programs.SurfaceProgram: node inputs driven per hit by
+        textures, attributes and node math (Cycles' SVM nodes before the closures).
     """
 
     name: str
@@ -175,6 +177,7 @@ class Material:
     two_sided_emission: bool = True
     medium: int = -1
     surface_nodes: list = field(default_factory=list)
+    surface_program: Optional[object] = None
 
     def __post_init__(self):
         if self.surface == "diffuse":
@@ -230,6 +233,12 @@ class Mesh:
     material_ids: (T,) int32 indices into Scene.materials;
     corner_normals: optional (T, 3, 3) float32 shading normals per triangle corner (smooth and
     custom split normals); None means flat shading.
+    corner_attributes: per-corner values read by surface programs, {name: (T, 3, k) float32}
+        (surface_programs.py names them: "uv:<map>", "uv:" the active-render UV map,
+        "color:<name>", "tangent:<map>" as xyz + sign in object space).
+    object_frame: optional (2, 3, 4): world -> object and object -> Generated texture space of
+        the object the mesh came from (Texture Coordinate Object / Generated / Normal); None: the
+        world frame and the mesh's bounding box as texture space.
     """
 
     name: str
@@ -237,6 +246,8 @@ class Mesh:
     triangles: np.ndarray
     material_ids: np.ndarray
     corner_normals: Optional[np.ndarray] = None
+    corner_attributes: dict = field(default_factory=dict)
+    object_frame: Optional[np.ndarray] = None
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float32).reshape(-1, 3)
@@ -244,6 +255,28 @@ class Mesh:
         self.material_ids = np.ascontiguousarray(self.material_ids, dtype=np.int32).reshape(-1)
         if self.corner_normals is not None:
             self.corner_normals = np.ascontiguousarray(self.corner_normals, dtype=np.float32).reshape(-1, 3, 3)
+        attributes = {}
+        for name, values in (self.corner_attributes or {}).items():
+            values = np.asarray(values, dtype=np.float32)
+            if values.ndim == 2:
+                values = values[:, :, None]
+            attributes[str(name)] = np.ascontiguousarray(values)
+        self.corner_attributes = attributes
+        if self.object_frame is not None:
+            self.object_frame = np.ascontiguousarray(self.object_frame, dtype=np.float64).reshape(2, 3, 4)
+
+    def frame(self) -> np.ndarray:
+        """object_frame, or the world frame with the bounding box as Generated texture space."""
+        if self.object_frame is not None:
+            return self.object_frame
+        frame = np.zeros((2, 3, 4))
+        frame[0, :, :3] = np.eye(3)
+        lo = self.vertices.min(axis=0).astype(np.float64) if len(self.vertices) else np.zeros(3)
+        hi = self.vertices.max(axis=0).astype(np.float64) if len(self.vertices) else np.ones(3)
+        size = np.where(hi - lo > 0, hi - lo, 1.0)
+        frame[1, :, :3] = np.diag(1.0 / size)
+        frame[1, :, 3] = -lo / size
+        return frame
 
     def validate(self, n_materials: int) -> list[str]:
         n_tri = len(self.triangles)
@@ -257,6 +290,12 @@ class Mesh:
             raise SceneError(f"mesh '{self.name}': non-finite vertex coordinates")
         if self.corner_normals is not None and self.corner_normals.shape != (n_tri, 3, 3):
             raise SceneError(f"mesh '{self.name}': corner_normals must have shape ({n_tri}, 3, 3)")
+        for name, values in self.corner_attributes.items():
+            if values.ndim != 3 or values.shape[:2] != (n_tri, 3) or not 1 <= values.shape[2] <= 4:
+                raise SceneError(f"mesh '{self.name}': corner attribute '{name}' must have shape ({n_tri}, 3, 1..4), "
+                                 f"got {values.shape}")
+        if self.object_frame is not None and not np.all(np.isfinite(self.object_frame)):
+            raise SceneError(f"mesh '{self.name}': object_frame is not finite")
         warnings = []
         if n_tri:
             n_degenerate = int(np.count_nonzero(doubled_areas(self.vertices, self.triangles) <= 1e-20))
@@ -572,6 +611,8 @@ class Scene:
     lights: list = field(default_factory=list)
     world: World = field(default_factory=World)
     settings: RenderSettings = field(default_factory=RenderSettings)
+    #: shading.images.Image list read by the surface programs' image textures (by index)
+    images: list = field(default_factory=list)
 
     def validate(self) -> list[str]:
         """Raise SceneError for unusable input; fix up and return warnings for recoverable input."""
@@ -596,6 +637,11 @@ class Scene:
                 raise SceneError(f"material '{material.name}': medium index {material.medium} out of range")
             for node in material.surface_nodes:
                 warnings += [f"material '{material.name}': {w}" for w in node.sanitize()]
+            if material.surface_program is not None:
+                try:
+                    material.surface_program.validate(material.bsdf_nodes(), f"material '{material.name}'")
+                except ValueError as error:
+                    raise SceneError(str(error))
             if np.any(material.base_color < 0) or np.any(material.emission < 0):
                 warnings.append(f"material '{material.name}': negative colour clamped to 0")
                 material.base_color = np.maximum(material.base_color, 0.0)

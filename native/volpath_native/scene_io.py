@@ -51,6 +51,28 @@ def _to_json(obj) -> dict:
     return {f.name: _jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
 
 
+def _material_header(index: int, material, arrays: dict) -> dict:
+    """A material's fields; its surface program (if any) as a header whose arrays are
+    `material{i}.program_code / _init / _tables` (additive to version 1)."""
+    header = {f.name: _jsonable(getattr(material, f.name)) for f in dataclasses.fields(material)
+              if f.name != "surface_program"}
+    if material.surface_program is not None:
+        program, program_arrays = material.surface_program.to_record()
+        header["surface_program"] = program
+        for key, value in program_arrays.items():
+            arrays[f"material{index}.program_{key}"] = value
+    return header
+
+
+def _mesh_header(mesh) -> dict:
+    header = {"name": mesh.name, "smooth": mesh.corner_normals is not None}
+    if mesh.corner_attributes:  # additive to version 1
+        header["attributes"] = list(mesh.corner_attributes)
+    if mesh.object_frame is not None:
+        header["framed"] = True
+    return header
+
+
 # The camera fields of format 1's first files; the others (depth of field, panoramic, motion
 # blur) are additive and written only where they differ from their defaults, so scenes without
 # them stay readable by earlier readers.
@@ -102,11 +124,15 @@ def save_scene(scene: sc.Scene, path) -> Path:
         "film": _to_json(scene.film),
         "world": _to_json(scene.world),
         "settings": _to_json(scene.settings),
-        "materials": [_to_json(m) for m in scene.materials],
+        "materials": [_material_header(i, m, arrays) for i, m in enumerate(scene.materials)],
         "media": [_medium_header(i, m, arrays) for i, m in enumerate(scene.media)],
         "lights": [dict(_to_json(light), type=_LIGHT_NAMES[type(light)]) for light in scene.lights],
-        "meshes": [{"name": m.name, "smooth": m.corner_normals is not None} for m in scene.meshes],
+        "meshes": [_mesh_header(m) for m in scene.meshes],
     }
+    if scene.images:  # additive to version 1: files without images have no section
+        header["images"] = [{"name": im.name, "compress_as_srgb": im.compress_as_srgb} for im in scene.images]
+        for i, image in enumerate(scene.images):
+            arrays[f"image{i}.pixels"] = image.pixels
     arrays["scene.json"] = np.frombuffer(json.dumps(header).encode("utf-8"), dtype=np.uint8)
     for i, mesh in enumerate(scene.meshes):
         arrays[f"mesh{i}.vertices"] = mesh.vertices
@@ -114,6 +140,10 @@ def save_scene(scene: sc.Scene, path) -> Path:
         arrays[f"mesh{i}.material_ids"] = mesh.material_ids
         if mesh.corner_normals is not None:
             arrays[f"mesh{i}.corner_normals"] = mesh.corner_normals
+        for k, values in enumerate(mesh.corner_attributes.values()):
+            arrays[f"mesh{i}.attribute{k}"] = values
+        if mesh.object_frame is not None:
+            arrays[f"mesh{i}.object_frame"] = mesh.object_frame
     with open(path, "wb") as f:  # a file object keeps numpy from appending ".npz"
         np.savez(f, **arrays)
     return path
@@ -219,7 +249,22 @@ def _build(header: dict, data, where: str) -> sc.Scene:
                 triangles=data[f"mesh{i}.triangles"],
                 material_ids=data[f"mesh{i}.material_ids"],
                 corner_normals=data[f"mesh{i}.corner_normals"] if info.get("smooth") else None,
+                corner_attributes={name: data[f"mesh{i}.attribute{k}"]
+                                   for k, name in enumerate(info.get("attributes", []))},
+                object_frame=data[f"mesh{i}.object_frame"] if info.get("framed") else None,
             ))
+        from .shading.images import Image
+        from .surface_programs import SurfaceProgram
+        images = [Image(entry["name"], data[f"image{i}.pixels"], bool(entry.get("compress_as_srgb", False)))
+                  for i, entry in enumerate(header.get("images", []))]
+        materials = []
+        for i, entry in enumerate(header["materials"]):
+            entry = dict(entry)
+            program = entry.pop("surface_program", None)
+            if program is not None:
+                arrays = {key: data[f"material{i}.program_{key}"] for key in ("code", "init", "tables")}
+                entry["surface_program"] = SurfaceProgram.from_record(program, arrays)
+            materials.append(sc.Material(**entry))
         film = dict(header["film"])
         if film.get("crop") is not None:
             film["crop"] = tuple(film["crop"])
@@ -231,11 +276,12 @@ def _build(header: dict, data, where: str) -> sc.Scene:
             camera=sc.Camera(**header["camera"]),
             film=sc.Film(**film),
             meshes=meshes,
-            materials=[sc.Material(**m) for m in header["materials"]],
+            materials=materials,
             media=media,
             lights=lights,
             world=sc.World(**header.get("world", {})),
             settings=sc.RenderSettings(**header.get("settings", {})),
+            images=images,
         )
     except sc.SceneError as error:
         raise sc.SceneError(f"{where}: {error}") from None

@@ -75,8 +75,14 @@ _PROGRAM_FIELDS = {"type": ("str", True), "name": ("str", True), "g": ("float", 
                    "program_varying": ("bool", False), "program_attributes": ("any", False),
                    "grid_index_to_world": ("matrix4", False)}
 _PROGRAM_ARRAYS = {"program_code": 1, "program_init": 1, "program_tables": 1, "attributes": 4}
-_MESH_FIELDS = {"name": ("str", True), "smooth": ("bool", False)}
-_SECTIONS = ("camera", "film", "world", "settings", "materials", "media", "lights", "meshes")
+_MESH_FIELDS = {"name": ("str", True), "smooth": ("bool", False), "attributes": ("list", False),
+                "framed": ("bool", False)}
+# A material's surface program (surface_programs.SurfaceProgram.to_record): checked by its
+# validate() when built; its arrays are material{i}.program_code / _init / _tables.
+_SURFACE_PROGRAM_FIELDS = {"name": ("str", False), "varying": ("bool", False), "bindings": ("list", False),
+                           "inputs": ("list", False), "normal": ("int", False)}
+_IMAGE_FIELDS = {"name": ("str", True), "compress_as_srgb": ("bool", False)}
+_SECTIONS = ("camera", "film", "world", "settings", "materials", "media", "lights", "meshes", "images")
 # Largest JSON document read (bytes): a scene of 10^5 objects is far below it.
 MAX_HEADER_BYTES = 64 << 20
 
@@ -278,6 +284,12 @@ def check_header(header, arrays: dict, where: str) -> None:
         for k, node in enumerate(mat.get("surface_nodes", [])):
             _check_object(node, dataclass_fields(bsdf_nodes.SurfaceNode), where, f"materials[{i}].surface_nodes[{k}]",
                           "SurfaceNode")
+        program = mat.get("surface_program")
+        if program is not None:
+            _check_object(program, _SURFACE_PROGRAM_FIELDS, where, f"materials[{i}].surface_program")
+            for name in ("code", "init", "tables"):
+                _require_array(arrays, f"material{i}.program_{name}", where, f"materials[{i}].surface_program.{name}",
+                               1, None, "iu" if name == "code" else "f")
         medium = mat.get("medium", -1)
         if not -1 <= medium < n_media:
             _fail(where, f"materials[{i}].medium", f"index {medium} out of range ({n_media} media)")
@@ -297,6 +309,11 @@ def check_header(header, arrays: dict, where: str) -> None:
     for i, mesh in enumerate(meshes):
         _check_object(mesh, _MESH_FIELDS, where, f"meshes[{i}]")
         _check_mesh_arrays(i, mesh, arrays, where)
+    for i, image in enumerate(_check_list(header, "images", where) if "images" in header else []):
+        _check_object(image, _IMAGE_FIELDS, where, f"images[{i}]")
+        shape = _require_array(arrays, f"image{i}.pixels", where, f"images[{i}].pixels", 3, None, "fu")
+        if shape[2] not in (1, 4) or shape[0] < 1 or shape[1] < 1:
+            _fail(where, f"images[{i}].pixels", f"shape {tuple(shape)}: expected (height, width, 1 or 4)")
     claimed = sum(nbytes for _, _, nbytes in arrays.values())
     memory = physical_memory()
     if memory and claimed > memory // 2:
@@ -327,6 +344,14 @@ def _check_mesh_arrays(i: int, mesh: dict, arrays: dict, where: str):
         normals = _require_array(arrays, f"mesh{i}.corner_normals", where, f"{path}.corner_normals", 3, (3, 3))
         if normals[0] != tris[0]:
             _fail(where, f"{path}.corner_normals", f"{normals[0]} rows of corner normals for {tris[0]} triangles")
+    for k, name in enumerate(mesh.get("attributes", [])):
+        if not isinstance(name, str):
+            _fail(where, f"{path}.attributes[{k}]", f"expected a name, got {_short(name)}")
+        shape = _require_array(arrays, f"mesh{i}.attribute{k}", where, f"{path}.attributes[{k}]", 3)
+        if shape[0] != tris[0] or shape[1] != 3 or not 1 <= shape[2] <= 4:
+            _fail(where, f"{path}.attributes[{k}]", f"shape {tuple(shape)}: expected ({tris[0]}, 3, 1..4)")
+    if mesh.get("framed"):
+        _require_array(arrays, f"mesh{i}.object_frame", where, f"{path}.object_frame", 3, (3, 4))
 
 
 def _check_box(medium: dict, where: str, path: str):

@@ -61,12 +61,13 @@ def compile_aovs(material):
 
 
 def evaluate(program, frame, points, register, width) -> np.ndarray:
+    from volpath_native.shading.images import empty_image_table
     from volpath_native.shading.interpreter import run_program_many
 
     out = np.zeros((len(points), width))
     run_program_many(program.code, program.init, program.tables, np.zeros(program.n_registers),
                      np.ascontiguousarray(frame), np.zeros((1, 1, 1, 1), np.float32), np.zeros((3, 4)),
-                     np.ascontiguousarray(points, dtype=np.float64), out, register, width)
+                     np.ascontiguousarray(points, dtype=np.float64), out, register, width, empty_image_table())
     return out
 
 

@@ -13,6 +13,7 @@ from volpath_native.program_medium import ProgramMedium
 from volpath_native.shading import program as P
 from volpath_native.shading.builder import ProgramBuilder
 from volpath_native.shading.interpreter import closure_coefficients, run_program_many
+from volpath_native.shading.images import empty_image_table
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "native"))
 from native_helpers import Z_LIMIT, box_mesh  # noqa: E402
@@ -59,7 +60,8 @@ def quadrature_depth(medium: ProgramMedium, origins, dirs, t_max, steps=2000):
         points = np.ascontiguousarray(o + d * t[:, None])
         out = np.zeros((steps, 22))
         run_program_many(p.code, p.init, p.tables, regs, medium.frame, medium.attributes,
-                         np.ascontiguousarray(medium.world_to_index[:3]), points, out, P.R_SIGMA_A, 22)
+                         np.ascontiguousarray(medium.world_to_index[:3]), points, out, P.R_SIGMA_A, 22,
+                         empty_image_table())
         inside = np.all((points @ medium.world_to_index[:3, :3].T + medium.world_to_index[:3, 3] >= 0)
                         & (points @ medium.world_to_index[:3, :3].T + medium.world_to_index[:3, 3]
                            <= medium.shape - 1), axis=1)

@@ -18,6 +18,7 @@ from addon.export.shader_nodes_textures import TEXTURE_NODE_COMPILERS  # noqa: E
 from volpath_native.shading import program as P  # noqa: E402
 from volpath_native.shading.builder import ProgramBuilder  # noqa: E402
 from volpath_native.shading.interpreter import run_program_many  # noqa: E402
+from volpath_native.shading.images import empty_image_table  # noqa: E402
 
 
 class StandInCompiler:
@@ -130,7 +131,7 @@ def test_compiled_textures_match_cycles(rendered):
             out = np.zeros((len(points), width))
             run_program_many(program.code, program.init, program.tables, np.zeros(program.n_registers),
                              np.zeros((2, 3, 4)), np.zeros((1, 1, 1, 1), np.float32), np.zeros((3, 4)), points, out,
-                             registers[identifier], width)
+                             registers[identifier], width, empty_image_table())
             expected = cycles[aov][:, :width] if width == 3 else cycles[aov]
             bad, worst = mismatches(out, expected)
             if bad:

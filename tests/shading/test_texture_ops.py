@@ -9,6 +9,7 @@ import pytest
 from volpath_native.shading import program as P
 from volpath_native.shading.builder import ProgramBuilder
 from volpath_native.shading.interpreter import run_program_many
+from volpath_native.shading.images import empty_image_table
 from volpath_native.shading.textures.gradient import gradient_texture
 from volpath_native.shading.textures.magic import magic_texture
 from volpath_native.shading.textures.noise import NOISE_HETERO_TERRAIN, noise_texture
@@ -24,7 +25,8 @@ def run(builder, first, count):
     regs = np.zeros(program.n_registers)
     out = np.zeros((len(POINTS), count))
     run_program_many(program.code, program.init, program.tables, regs, np.zeros((2, 3, 4)),
-                     np.zeros((1, 1, 1, 1), np.float32), np.zeros((3, 4)), POINTS, out, first, count)
+                     np.zeros((1, 1, 1, 1), np.float32), np.zeros((3, 4)), POINTS, out, first, count,
+                     empty_image_table())
     return out
 
 

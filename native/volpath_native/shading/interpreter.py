@@ -27,7 +27,10 @@ from .program import (LOBE_STRIDE, MAX_LOBES, OP_ATTRIBUTE, OP_BLACKBODY, OP_BRI
                       OP_VECTOR_MATH, OP_VECTOR_TO_FLOAT, OP_VOLUME_ABSORPTION, OP_VOLUME_COEFFICIENTS,
                       OP_VOLUME_EMISSION, OP_VOLUME_SCATTER, OPERAND_COUNT, R_EMISSION, R_I, R_LOBES, R_N, R_P,
                       R_SIGMA_A, R_UV, TEXTURE_OP_BASE)
+from .surface_ops import run_surface_op
 from .textures.ops import run_texture_op
+
+SURFACE_OP_BASE = 60  # opcodes 60-99: surface_ops.py
 
 # Cycles' CLOSURE_WEIGHT_CUTOFF (kernel/types.h): closures below it are not added.
 CLOSURE_WEIGHT_CUTOFF = 1e-5
@@ -630,9 +633,10 @@ def _principled_volume(regs, code, a):
 # The interpreter
 # ---------------------------------------------------------------------------------------------
 @stage_kernel
-def run_program(code, init, tables, regs, frame, attributes, world_to_index, px, py, pz):
+def run_program(code, init, tables, regs, frame, attributes, world_to_index, px, py, pz, images):
     """Evaluate a program at world point (px, py, pz): registers start as `init` with the position
-    in R_P; the volume closure outputs are then in R_SIGMA_A, R_EMISSION and R_LOBES."""
+    in R_P; the volume closure outputs are then in R_SIGMA_A, R_EMISSION and R_LOBES. images: the
+    scene's images.ImageTable (read by IMAGE_TEXTURE; images.empty_image_table() when none)."""
     for i in range(init.shape[0]):
         regs[i] = init[i]
     regs[R_P], regs[R_P + 1], regs[R_P + 2] = px, py, pz
@@ -810,6 +814,8 @@ def run_program(code, init, tables, regs, frame, attributes, world_to_index, px,
             w, f = regs[code[a]], _clamp(regs[code[a + 1]], 0.0, 1.0)
             regs[code[a + 2]] = w * (1.0 - f)
             regs[code[a + 3]] = w * f
+        elif op >= SURFACE_OP_BASE and op < TEXTURE_OP_BASE:
+            run_surface_op(op, code, a, regs, tables, images, frame)
         elif op >= TEXTURE_OP_BASE:
             run_texture_op(op, code, a, regs, tables)
         pc = a + OPERAND_COUNT[op]
@@ -841,10 +847,11 @@ def _non_negative(v):
 
 
 @stage_kernel
-def run_program_many(code, init, tables, regs, frame, attributes, world_to_index, points, outputs, first, count):
+def run_program_many(code, init, tables, regs, frame, attributes, world_to_index, points, outputs, first, count,
+                     images):
     """Evaluate at each row of points (N, 3); copy registers [first, first + count) to outputs (N, count)."""
     for n in range(points.shape[0]):
         run_program(code, init, tables, regs, frame, attributes, world_to_index,
-                    points[n, 0], points[n, 1], points[n, 2])
+                    points[n, 0], points[n, 1], points[n, 2], images)
         for c in range(count):
             outputs[n, c] = regs[first + c]

@@ -16,7 +16,8 @@ operands is fixed per opcode (OPERAND_COUNT). Operands are register indices unle
 them as literals (enums, table offsets, counts). `tables` (float64) holds lookup data (colour
 ramps, curves) addressed by literal offsets.
 
-Opcode ranges: 0-99 the core (interpreter.py), 100-199 texture nodes (textures/ops.py).
+Opcode ranges: 0-59 the core (interpreter.py), 60-99 surface nodes (surface_ops.py: image textures,
+normal maps), 100-199 texture nodes (textures/ops.py).
 """
 from __future__ import annotations
 
@@ -40,6 +41,10 @@ MAX_LOBES = 4
 LOBE_STRIDE = 4
 #: first register free for the compiler's constants and temporaries
 R_FIRST_FREE = R_LOBES + MAX_LOBES * LOBE_STRIDE
+#: surface programs (run at a surface hit, surface_ops.py) have no volume closures: their extra
+#: inputs overlay the volume outputs
+R_NG = R_SIGMA_A          # geometric normal, on the viewer's side (3)
+R_BACKFACING = R_EMISSION  # 1.0 when the ray hit the back face (Cycles' SD_BACKFACING), else 0.0
 
 
 @dataclass(frozen=True)
@@ -129,6 +134,23 @@ OP_VOLUME_COEFFICIENTS = define("VOLUME_COEFFICIENTS", 44, "lobe#", "weight", "s
                                 "anisotropy")
 # weight helpers for Mix Shader: out_a = w (1 - clamp(f)), out_b = w clamp(f)
 OP_MIX_WEIGHTS = define("MIX_WEIGHTS", 45, "weight", "factor", "out_a", "out_b")
+
+# Surface opcodes (60-99, shading/surface_ops.py)
+# Image Texture node (svm/image.h svm_node_tex_image): image# is the index into the scene's image
+# table (-1: missing, magenta); tile_count# > 0 makes it a UDIM set whose (tile number, image index)
+# pairs sit in tables[tiles# ...]; interpolation# / extension# as images.INTERPOLATIONS /
+# EXTENSIONS; projection# 0 flat, 2 sphere, 3 tube (Cycles' NODE_IMAGE_PROJ_*); unassociate# 1
+# when the Alpha output is used (NODE_IMAGE_ALPHA_UNASSOCIATE).
+OP_IMAGE_TEXTURE = define("IMAGE_TEXTURE", 60, "image#", "tiles#", "tile_count#", "interpolation#", "extension#",
+                          "projection#", "unassociate#", "vector3", "out_color3", "out_alpha")
+# Normal Map node (svm/tex_coord.h svm_node_normal_map): space# NORMAL_MAP_SPACES; tangent3 and
+# sign are the UV map's MikkTSpace tangent and sign (world space, interpolated), normal3 the
+# shading normal; writes the perturbed world-space normal on the viewer's side.
+OP_NORMAL_MAP = define("NORMAL_MAP", 61, "space#", "strength", "color3", "tangent3", "sign", "normal3", "out3")
+NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3, "BLENDER_WORLD": 4}
+# Texture Coordinate Normal on surfaces: the shading normal in object space (svm/tex_coord.h
+# NODE_TEXCO_NORMAL, object_inverse_normal_transform)
+OP_OBJECT_NORMAL = define("OBJECT_NORMAL", 62, "in3", "out3")
 
 # Math kinds (Blender's NODE_MATH_* enum values: DNA_node_types.h), used by the compiler by name.
 MATH_KINDS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "SINE", "COSINE", "TANGENT", "ARCSINE", "ARCCOSINE",

@@ -1,0 +1,221 @@
+"""Varying BSDF inputs of one material -> a volpath_native SurfaceProgram.
+
+surfaces.py reads every BSDF node's inputs as constants; for a material with this compiler, an
+input linked to anything that is not a constant (an Image Texture, a Noise Texture, a Color
+Attribute, Math between them...) is compiled instead, with the one shader compiler of the
+volumes (shader_compiler.ShaderCompiler plus the surface nodes of shader_nodes_surface.py), and
+*bound* to the SurfaceNode field it drives: the kernel overwrites that field at every hit
+(volpath_native.surface_programs). Mix Shader factors become bound node weights, a linked Normal
+the closures' normal. Cycles does the same work in one SVM program per material
+(scene/shader_graph.cpp, kernel/svm/svm.h).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from volpath_native.shading import program as P
+from volpath_native.surface_programs import ACTIVE_UV, SurfaceProgram
+
+from .shader_compiler import ShaderCompiler, _socket
+
+# BSDF node type -> {socket name: SurfaceNode field} of the inputs a program may drive
+# (Blender 4+/5 socket names; C5 scene/shader_nodes.cpp for what each closure reads)
+BOUND_SOCKETS = {
+    "BSDF_PRINCIPLED": {
+        "Base Color": "color", "Metallic": "metallic", "Roughness": "roughness", "IOR": "ior", "Alpha": "alpha",
+        "Diffuse Roughness": "diffuse_roughness", "Specular IOR Level": "specular_ior_level",
+        "Specular Tint": "specular_tint", "Transmission Weight": "transmission", "Coat Weight": "coat_weight",
+        "Coat Roughness": "coat_roughness", "Coat IOR": "coat_ior", "Coat Tint": "coat_tint",
+        "Sheen Weight": "sheen_weight", "Sheen Roughness": "sheen_roughness", "Sheen Tint": "sheen_tint",
+        "Subsurface Weight": "subsurface_weight"},
+    "BSDF_DIFFUSE": {"Color": "color", "Roughness": "roughness"},
+    "BSDF_GLOSSY": {"Color": "color", "Roughness": "roughness"},
+    "BSDF_ANISOTROPIC": {"Color": "color", "Roughness": "roughness"},
+    "BSDF_GLASS": {"Color": "color", "Roughness": "roughness", "IOR": "ior"},
+    "BSDF_REFRACTION": {"Color": "color", "Roughness": "roughness", "IOR": "ior"},
+    "BSDF_METALLIC": {"Base Color": "color", "Edge Tint": "edge_tint", "Roughness": "roughness",
+                      "IOR": "conductor_n", "Extinction": "conductor_k"},
+    "BSDF_TRANSPARENT": {"Color": "color"},
+    "BSDF_TRANSLUCENT": {"Color": "color"},
+    "BSDF_SHEEN": {"Color": "color", "Roughness": "roughness"},
+}
+_COLOR_FIELDS = {"color", "specular_tint", "coat_tint", "sheen_tint", "edge_tint", "conductor_n", "conductor_k"}
+# sockets whose variation VolPath cannot follow: warned, the socket's own value is used
+_UNSUPPORTED = ("Emission Color", "Emission Strength", "Anisotropic", "Anisotropic Rotation", "Anisotropy",
+                "Rotation", "Thin Film Thickness", "Thin Film IOR", "Subsurface Radius", "Subsurface Scale")
+
+
+class SurfaceShaderCompiler(ShaderCompiler):
+    """ShaderCompiler at a surface hit: the surface nodes (images, UV maps, attributes, normal
+    maps) and the surface meaning of Texture Coordinate / Geometry / Attribute."""
+
+    context = "surface"
+
+    def __init__(self, owner: str, reporter, images):
+        super().__init__(owner, reporter)
+        self.images = images
+        self.inputs: list = []  # (attribute name, width, register)
+        self.uses_uv = False  # reads the active-render UV map (R_UV)
+        self.builder._varying.update(range(P.R_NG, P.R_NG + 3))
+        self.builder._varying.add(P.R_BACKFACING)
+
+    def emit(self, name: str, *operands: int):
+        if name == "TEXCO" and operands[0] == P.TEXCO_UV:
+            self.uses_uv = True
+        super().emit(name, *operands)
+
+    def attribute_input(self, name: str, width: int) -> int:
+        """Registers the kernel fills with the hit's interpolated per-corner attribute `name`."""
+        for existing, w, reg in self.inputs:
+            if existing == name and w >= width:
+                return reg
+        reg = self.alloc(width)
+        self.builder._varying.update(range(reg, reg + width))
+        self.inputs.append((name, width, reg))
+        return reg
+
+    def _compile_node(self, node) -> dict:
+        from .shader_nodes_surface import SURFACE_NODE_COMPILERS
+
+        if not node.mute and node.type in SURFACE_NODE_COMPILERS:
+            return SURFACE_NODE_COMPILERS[node.type](self, node)
+        return super()._compile_node(node)
+
+    def uv_vector(self, node, key="Vector") -> int:
+        """An image node's vector: the linked value, else the active-render UV map (Cycles'
+        ImageTextureNode attaches ATTR_STD_UV), through the node's hidden texture mapping."""
+        socket = _socket(node.inputs, key)
+        if socket is not None and self._source(socket) is not None:
+            vector = self.vector_input(node, key)
+        else:
+            vector = self.alloc(3)
+            self.emit("TEXCO", P.TEXCO_UV, vector)
+        mapping = getattr(node, "texture_mapping", None)
+        from .shader_compiler import _identity_mapping
+        if mapping is not None and not _identity_mapping(mapping):
+            out = self.alloc(3)
+            kinds = {"POINT": 0, "TEXTURE": 1, "VECTOR": 2, "NORMAL": 3}
+            self.emit("MAPPING", kinds.get(mapping.vector_type, 0), vector, self.const(list(mapping.translation)),
+                      self.const(list(mapping.rotation)), self.const(list(mapping.scale)), out)
+            vector = out
+        return vector
+
+
+class SurfaceProgramCompiler:
+    """Collects the bindings of one material while surfaces.py reads its BSDF nodes."""
+
+    def __init__(self, owner: str, reporter, images):
+        self.owner = owner
+        self.reporter = reporter
+        self.compiler = SurfaceShaderCompiler(owner, reporter, images)
+        self.normal = -1
+        self._normal_source = None
+
+    # -- what surfaces.py asks ------------------------------------------------------------------
+    def is_varying(self, socket) -> bool:
+        """Linked to something other than a constant (RGB / Value nodes are read as constants)."""
+        if socket is None or not socket.is_linked:
+            return False
+        source = self.compiler._source(socket)
+        if source is None or isinstance(source, tuple):
+            return False
+        return source.node.type not in ("RGB", "VALUE")
+
+    def handles(self, node, socket) -> bool:
+        """Whether reading this socket as a constant is right because the program drives it."""
+        name = socket.name
+        if name in BOUND_SOCKETS.get(node.type, {}) or name == "Normal":
+            return self.is_varying(socket)
+        if node.type == "MIX_SHADER" and socket == node.inputs[0]:
+            return self.is_varying(socket)
+        return False
+
+    def bind_inputs(self, node, terms) -> None:
+        """Compile node's varying inputs into terms.bindings (terms holds this node at index 0)."""
+        for name, field in BOUND_SOCKETS.get(node.type, {}).items():
+            socket = node.inputs.get(name)
+            if socket is None or not socket.enabled or not self.is_varying(socket):
+                continue
+            try:
+                reg = (self.compiler.color_input(node, name) if field in _COLOR_FIELDS
+                       else self.compiler.float_input(node, name))
+            except (KeyError, ValueError, TypeError, AttributeError) as error:
+                self.reporter.warn(f"{self.owner}: node '{node.name}': input '{name}' could not be compiled "
+                                   f"({error}); its own value is used")
+                continue
+            terms.bindings.append((0, field, reg))
+        for name in _UNSUPPORTED:
+            socket = node.inputs.get(name)
+            if socket is not None and socket.enabled and self.is_varying(socket):
+                self.reporter.warn(f"{self.owner}: node '{node.name}' ({node.bl_idname}): input '{name}' is driven "
+                                   "by nodes VolPath does not evaluate for it; the input's own value is used")
+
+    def bind_normal(self, node, name="Normal") -> bool:
+        """Compile a linked Normal input as the material's closure normal (True if taken)."""
+        socket = node.inputs.get(name)
+        if socket is None or not self.is_varying(socket):
+            return False
+        source = self.compiler._source(socket)
+        key = (source.node.name, source.identifier)
+        if self.normal >= 0:
+            if key != self._normal_source:
+                self.reporter.warn(f"{self.owner}: node '{node.name}': input '{name}' differs from another BSDF's "
+                                   "normal; VolPath uses one normal per material (the first)")
+            return True
+        self.normal = self.compiler.vector_input(node, name)
+        self._normal_source = key
+        return True
+
+    def mix_weights(self, node) -> tuple:
+        """Registers (1 - f, f) of a Mix Shader's varying factor, clamped as svm_node_mix_closure."""
+        a, b = self.compiler.alloc(), self.compiler.alloc()
+        self.compiler.emit("MIX_WEIGHTS", self.compiler.const(1.0), self.compiler.float_input(node, 0), a, b)
+        return a, b
+
+    def multiply(self, reg_a: int, reg_b: int) -> int:
+        out = self.compiler.alloc()
+        self.compiler.emit("MATH", P.MATH["MULTIPLY"], reg_a, reg_b, reg_b, out)
+        return out
+
+    def const(self, value) -> int:
+        return self.compiler.const(value)
+
+    # -- result -----------------------------------------------------------------------------------
+    def program(self, nodes: list, bindings: list):
+        """The SurfaceProgram of the material (None when nothing varies)."""
+        if not bindings and self.normal < 0:
+            return None
+        program = self.compiler.builder.build()
+        return SurfaceProgram(program, list(bindings), list(self.compiler.inputs), self.normal)
+
+    def requested_attributes(self) -> set:
+        names = {name for name, _, _ in self.compiler.inputs}
+        return names | {ACTIVE_UV} if self.compiler.uses_uv else names
+
+
+def weight_register(program: SurfaceProgramCompiler, bindings: list, index: int, weight: float) -> int:
+    """The register holding node `index`'s weight: its bound one, else the constant."""
+    for i, field, reg in bindings:
+        if i == index and field == "weight":
+            return reg
+    return program.const(float(weight))
+
+
+def scale_weights(program, nodes: list, bindings: list, factor_reg: int) -> list:
+    """Bindings with every node's weight multiplied by register factor_reg."""
+    kept = [b for b in bindings if b[1] != "weight"]
+    for index, node in enumerate(nodes):
+        kept.append((index, "weight", program.multiply(weight_register(program, bindings, index, node.weight),
+                                                       factor_reg)))
+    return kept
+
+
+def scale_bound_weights(program, bindings: list, w: float) -> list:
+    """Bindings after a constant factor w on every node (bound weights scaled too)."""
+    if program is None or not any(b[1] == "weight" for b in bindings):
+        return list(bindings)
+    c = program.const(float(w))
+    return [(i, f, program.multiply(r, c)) if f == "weight" else (i, f, r) for i, f, r in bindings]
+
+
+_ = np
