@@ -77,15 +77,16 @@ class ShaderCompiler:
     def color_input(self, node, key) -> int:
         return self._input(node, key, "color")
 
-    def texture_vector(self, node, key="Vector") -> int:
-        """A texture node's vector: the linked value, else Generated coordinates (Cycles'
-        LINK_TEXTURE_GENERATED), through the node's hidden texture mapping if it is not identity."""
+    def texture_vector(self, node, key="Vector", default=P.TEXCO_GENERATED) -> int:
+        """A texture node's vector: the linked value, else the `default` texture coordinate
+        (Generated: Cycles' LINK_TEXTURE_GENERATED), through the node's hidden texture mapping if
+        it is not identity."""
         socket = _socket(node.inputs, key)
         if socket is not None and self._source(socket) is not None:
             vector = self.vector_input(node, key)
         else:
             vector = self.alloc(3)
-            self.emit("TEXCO", P.TEXCO_GENERATED, vector)
+            self.emit("TEXCO", default, vector)
         mapping = getattr(node, "texture_mapping", None)
         if mapping is not None and not _identity_mapping(mapping):
             out = self.alloc(3)

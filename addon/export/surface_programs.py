@@ -84,21 +84,7 @@ class SurfaceShaderCompiler(ShaderCompiler):
     def uv_vector(self, node, key="Vector") -> int:
         """An image node's vector: the linked value, else the active-render UV map (Cycles'
         ImageTextureNode attaches ATTR_STD_UV), through the node's hidden texture mapping."""
-        socket = _socket(node.inputs, key)
-        if socket is not None and self._source(socket) is not None:
-            vector = self.vector_input(node, key)
-        else:
-            vector = self.alloc(3)
-            self.emit("TEXCO", P.TEXCO_UV, vector)
-        mapping = getattr(node, "texture_mapping", None)
-        from .shader_compiler import _identity_mapping
-        if mapping is not None and not _identity_mapping(mapping):
-            out = self.alloc(3)
-            kinds = {"POINT": 0, "TEXTURE": 1, "VECTOR": 2, "NORMAL": 3}
-            self.emit("MAPPING", kinds.get(mapping.vector_type, 0), vector, self.const(list(mapping.translation)),
-                      self.const(list(mapping.rotation)), self.const(list(mapping.scale)), out)
-            vector = out
-        return vector
+        return self.texture_vector(node, key, default=P.TEXCO_UV)
 
 
 class SurfaceProgramCompiler:
