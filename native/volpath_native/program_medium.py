@@ -154,6 +154,7 @@ class ProgramMedium(GridMedium):
         self._violation = np.zeros((2, 5))
         self._stop = np.zeros(1, dtype=np.int64)
         self.invalid_evaluations = 0
+        self.violation_count = 0  # tentative collisions above the sampled majorant (check_flags)
         self._build_majorant_grid(resolution)
 
     # ------------------------------------------------------------------------------------------
@@ -204,7 +205,7 @@ class ProgramMedium(GridMedium):
         """As GridMedium.check_flags, but majorant violations are expected (the bound is sampled)
         and only counted (violations()); the tracking stays unbiased."""
         count = int(tables.flags[FLAG_MAJORANT])
-        self.violation_count = getattr(self, "violation_count", 0) + count
+        self.violation_count += count
         tables.flags[FLAG_MAJORANT] = 0
         return super().check_flags(tables)
 

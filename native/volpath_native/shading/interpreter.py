@@ -19,7 +19,7 @@ import numpy as np
 
 from ..jit import inline_stage_kernel, stage_kernel
 from .blackbody import blackbody_rec709_scalar
-from .program import (LOBE_STRIDE, MAX_LOBES, OP_ATTRIBUTE, OP_BLACKBODY, OP_BRIGHT_CONTRAST, OP_CLAMP, OP_COLOR_RAMP,
+from .program import (MATH, VECTOR_MATH, VECTOR_MATH_KINDS, LOBE_STRIDE, MAX_LOBES, OP_ATTRIBUTE, OP_BLACKBODY, OP_BRIGHT_CONTRAST, OP_CLAMP, OP_COLOR_RAMP,
                       OP_COLOR_TO_FLOAT, OP_COMBINE3, OP_COPY, OP_CURVE_FLOAT, OP_CURVE_RGB, OP_FLOAT_TO_VECTOR,
                       OP_GAMMA, OP_HUE_SAT, OP_INVERT, OP_MAP_RANGE, OP_MAP_RANGE_VECTOR, OP_MAPPING, OP_MATH,
                       OP_MIX_COLOR, OP_MIX_FLOAT, OP_MIX_VECTOR, OP_MIX_WEIGHTS, OP_PRINCIPLED_VOLUME,
@@ -202,51 +202,34 @@ def math_op(kind, a, b, c):
     return 0.0
 
 
+# Component-wise Vector Math kinds (program.VECTOR_MATH index) -> the Math kind (program.MATH index)
+# whose scalar function Cycles applies per component (C5 src/util/math_float3.h: safe_divide,
+# safe_fmod, safe_pow, compatible_sign, floor(safe_divide(a, b)) * b are the scalar ones per
+# component); -1 for kinds handled whole (cross, project, reflect, ...) or WRAP, whose vector form
+# differs (safe_floored_fmod(a - min, max - min) + min).
+_VECTOR_TO_MATH = np.full(len(VECTOR_MATH_KINDS), -1, np.int64)
+for _vector_kind, _math_kind in (("ADD", "ADD"), ("SUBTRACT", "SUBTRACT"), ("MULTIPLY", "MULTIPLY"),
+                                 ("DIVIDE", "DIVIDE"), ("SCALE", "MULTIPLY"), ("SNAP", "SNAP"), ("FLOOR", "FLOOR"),
+                                 ("CEIL", "CEIL"), ("MODULO", "MODULO"), ("FRACTION", "FRACT"),
+                                 ("ABSOLUTE", "ABSOLUTE"), ("MINIMUM", "MINIMUM"), ("MAXIMUM", "MAXIMUM"),
+                                 ("SINE", "SINE"), ("COSINE", "COSINE"), ("TANGENT", "TANGENT"),
+                                 ("MULTIPLY_ADD", "MULTIPLY_ADD"), ("POWER", "POWER"), ("SIGN", "SIGN")):
+    _VECTOR_TO_MATH[VECTOR_MATH[_vector_kind]] = MATH[_math_kind]
+_VECTOR_WRAP = VECTOR_MATH["WRAP"]
+VECTOR_MATH_SCALE = VECTOR_MATH["SCALE"]
+
+
 @stage_kernel
 def _vector_math_component(kind, a, b, c, scale):
-    """Component-wise Vector Math kinds (program.VECTOR_MATH indices); others handled whole."""
-    if kind == 0:
-        return a + b
-    if kind == 1:
-        return a - b
-    if kind == 2:
-        return a * b
-    if kind == 3:
-        return _safe_divide(a, b)
-    if kind == 10:
-        return a * scale
-    if kind == 12:
-        return math.floor(_safe_divide(a, b)) * b
-    if kind == 13:
-        return math.floor(a)
-    if kind == 14:
-        return math.ceil(a)
-    if kind == 15:  # safe_fmod
-        return _fmod(a, b) if b != 0.0 else 0.0
-    if kind == 16:
-        return a - math.floor(a)
-    if kind == 17:
-        return abs(a)
-    if kind == 18:
-        return min(a, b)
-    if kind == 19:
-        return max(a, b)
-    if kind == 20:  # wrap(value, max, min) = safe_floored_fmod(value - min, max - min) + min
+    """One component of a component-wise Vector Math kind, through math_op (SCALE multiplies by
+    the scale; WRAP keeps the vector form)."""
+    if kind == _VECTOR_WRAP:
         r = b - c
         return (a - c) - math.floor((a - c) / r) * r + c if r != 0.0 else c
-    if kind == 21:
-        return math.sin(a)
-    if kind == 22:
-        return math.cos(a)
-    if kind == 23:
-        return math.tan(a)
-    if kind == 26:
-        return a * b + c
-    if kind == 27:
-        return _safe_pow(a, b)
-    if kind == 28:
-        return _sign(a)
-    return 0.0
+    math_kind = _VECTOR_TO_MATH[kind]
+    if math_kind < 0:
+        return 0.0
+    return math_op(math_kind, a, scale if kind == VECTOR_MATH_SCALE else b, c)
 
 
 @stage_kernel
