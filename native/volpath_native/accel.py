@@ -32,6 +32,7 @@ class Accelerator:
     (triangle_corners for a few). Array work runs in chunks, so temporaries stay small."""
 
     def __init__(self, meshes: list[Mesh]):
+        meshes = [copy for mesh in meshes for copy in mesh.world_copies()]
         verts, tris, mats, mesh_ids, kept_meshes = [], [], [], [], []
         base = 0
         for mesh_index, mesh in enumerate(meshes):

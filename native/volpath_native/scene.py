@@ -226,7 +226,7 @@ def doubled_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 @dataclass
 class Mesh:
-    """A triangle mesh in world space.
+    """A triangle mesh in world space, or a prototype in object space placed by instances.
 
     vertices: (V, 3) float32; triangles: (T, 3) int32 vertex indices (counter-clockwise seen
     from the front, so the geometric normal points outward for closed meshes);
@@ -238,7 +238,36 @@ class Mesh:
         "color:<name>", "tangent:<map>" as xyz + sign in object space).
     object_frame: optional (2, 3, 4): world -> object and object -> Generated texture space of
         the object the mesh came from (Texture Coordinate Object / Generated / Normal); None: the
-        world frame and the mesh's bounding box as texture space.
+        world frame and the mesh's bounding box as texture space. For an instanced mesh the
+        first part maps *prototype* space to the object's texture frame (identity when the
+        vertices are the object's own coordinates, as the exporter writes them): each instance's
+        world -> object is the inverse of its transform, composed with it.
+
+    Instancing (Cycles' object instancing: one BVH per unique mesh, an instance per object):
+    instances: optional (K, 3, 4) float64 object -> world affine maps (rows of a 4x4 without its
+        last row [0 0 0 1]); the mesh's vertices, corner_normals and "tangent:" attributes are
+        then in object space and the mesh appears K times. None (default): the vertices are in
+        world space and the mesh appears once (what every exporter wrote before). Memory grows
+        with the unique meshes, not with K. An emissive instanced mesh is expanded into world
+        triangles for light sampling only. The exporter groups depsgraph object instances by
+        their evaluated mesh datablock (collection instances, particle/geometry-nodes instances
+        and linked duplicates alike) and fills one Mesh per unique mesh with every
+        instance.matrix_world[:3] (float64) here.
+    motion: optional (K, S, 3, 4) float64 object -> world of every instance at S >= 2 shutter
+        times evenly spaced from the shutter's opening (step 0) to its closing (step S - 1),
+        the same steps as Camera.motion_transforms (Cycles' object motion steps, interpolated
+        decomposed: quaternion slerp of the rotation, linear scale and translation, as Cycles'
+        transform_motion_decompose / Embree's rtcSetGeometryTransformQuaternion). Requires
+        `instances` (the transforms at the frame itself: bounds, light sampling, renders without
+        motion). A moving object that is not instanced is exported as a mesh with K = 1.
+    vertex_motion: optional (S, V, 3) float32 vertex positions (in the space of `vertices`) at S
+        >= 2 shutter times evenly spaced as above, for a deforming mesh whose topology is the same
+        at every step (Cycles' motion vertex attribute, ATTR_STD_MOTION_VERTEX_POSITION; Blender
+        gives up deformation blur when the topology changes: the exporter then leaves it None
+        and warns). `vertices` stays the frame's positions (light sampling, bounds).
+    corner_normal_motion: optional (S, T, 3, 3) float32 corner normals at the same S steps
+        (smooth meshes with vertex_motion; Cycles' ATTR_STD_MOTION_VERTEX_NORMAL). Without it a
+        deforming smooth mesh shades with its frame's corner_normals.
     """
 
     name: str
@@ -248,6 +277,10 @@ class Mesh:
     corner_normals: Optional[np.ndarray] = None
     corner_attributes: dict = field(default_factory=dict)
     object_frame: Optional[np.ndarray] = None
+    instances: Optional[np.ndarray] = None
+    motion: Optional[np.ndarray] = None
+    vertex_motion: Optional[np.ndarray] = None
+    corner_normal_motion: Optional[np.ndarray] = None
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float32).reshape(-1, 3)
@@ -264,6 +297,33 @@ class Mesh:
         self.corner_attributes = attributes
         if self.object_frame is not None:
             self.object_frame = np.ascontiguousarray(self.object_frame, dtype=np.float64).reshape(2, 3, 4)
+        if self.instances is not None:
+            self.instances = np.ascontiguousarray(self.instances, dtype=np.float64).reshape(-1, 3, 4)
+        if self.motion is not None:
+            motion = np.ascontiguousarray(self.motion, dtype=np.float64)
+            self.motion = motion.reshape(motion.shape[0], -1, 3, 4) if motion.ndim >= 2 else motion
+        if self.vertex_motion is not None:
+            vertex_motion = np.ascontiguousarray(self.vertex_motion, dtype=np.float32)
+            self.vertex_motion = vertex_motion.reshape(vertex_motion.shape[0], -1, 3) if vertex_motion.ndim >= 1 \
+                else vertex_motion
+        if self.corner_normal_motion is not None:
+            normals = np.ascontiguousarray(self.corner_normal_motion, dtype=np.float32)
+            self.corner_normal_motion = normals.reshape(normals.shape[0], -1, 3, 3) if normals.ndim >= 1 else normals
+
+    @property
+    def instance_count(self) -> int:
+        """How many times the mesh appears (1 when not instanced)."""
+        return 1 if self.instances is None else len(self.instances)
+
+    @property
+    def motion_steps(self) -> int:
+        """Shutter steps of the instances' transforms (0: no object motion)."""
+        return 0 if self.motion is None else int(self.motion.shape[1])
+
+    @property
+    def vertex_motion_steps(self) -> int:
+        """Shutter steps of the vertex positions (0: no deformation motion)."""
+        return 0 if self.vertex_motion is None else int(self.vertex_motion.shape[0])
 
     def frame(self) -> np.ndarray:
         """object_frame, or the world frame with the bounding box as Generated texture space."""
@@ -296,11 +356,83 @@ class Mesh:
                                  f"got {values.shape}")
         if self.object_frame is not None and not np.all(np.isfinite(self.object_frame)):
             raise SceneError(f"mesh '{self.name}': object_frame is not finite")
-        warnings = []
+        warnings = self._validate_placement(n_tri)
         if n_tri:
             n_degenerate = int(np.count_nonzero(doubled_areas(self.vertices, self.triangles) <= 1e-20))
             if n_degenerate:
                 warnings.append(f"mesh '{self.name}': {n_degenerate} degenerate triangles ignored")
+        return warnings
+
+    def world_copies(self) -> list["Mesh"]:
+        """The mesh as world-space meshes: itself when not instanced, else one copy per instance
+        (its transform at the frame; singular ones skipped) with normals transformed by the
+        inverse transpose and the object frame composed with the instance's inverse. What the
+        renderer traces for emissive instances' light sampling, and the reference of the
+        instancing tests."""
+        if self.instances is None:
+            return [self]
+        base = self.frame() if self.object_frame is None else self.object_frame
+        copies = []
+        for k, transform in enumerate(self.instances):
+            linear, offset = transform[:, :3], transform[:, 3]
+            if abs(np.linalg.det(linear)) <= 1e-30:
+                continue
+            inverse = np.linalg.inv(linear)
+            vertices = (self.vertices.astype(np.float64) @ linear.T + offset).astype(np.float32)
+            triangles = self.triangles if np.linalg.det(linear) > 0 else self.triangles[:, ::-1]
+            normals = attributes = None
+            if self.corner_normals is not None:
+                normals = self.corner_normals.astype(np.float64) @ inverse  # n' = M^-T n, rows
+                normals /= np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-30)
+                if np.linalg.det(linear) < 0:
+                    normals = normals[:, ::-1]
+            attributes = self.corner_attributes if np.linalg.det(linear) > 0 else \
+                {name: values[:, ::-1] for name, values in self.corner_attributes.items()}
+            frame = np.array(base, dtype=np.float64)
+            # world -> object = (prototype -> object frame) o (world -> prototype)
+            world_to_proto = np.concatenate([inverse, (-inverse @ offset)[:, None]], axis=1)
+            frame[0, :, :3] = base[0, :, :3] @ world_to_proto[:, :3]
+            frame[0, :, 3] = base[0, :, :3] @ world_to_proto[:, 3] + base[0, :, 3]
+            copies.append(Mesh(f"{self.name}[{k}]", vertices, triangles, self.material_ids, normals, attributes,
+                               frame))
+        return copies
+
+    def _validate_placement(self, n_tri: int) -> list[str]:
+        """Shapes and finiteness of instances / motion / vertex_motion (SceneError); warnings for
+        what renders with a fallback."""
+        name, warnings = self.name, []
+        if self.instances is not None and not np.all(np.isfinite(self.instances)):
+            raise SceneError(f"mesh '{name}': instances are not finite")
+        if self.motion is not None:
+            if self.instances is None:
+                raise SceneError(f"mesh '{name}': motion needs instances (the transforms at the frame)")
+            if self.motion.ndim != 4 or self.motion.shape[0] != len(self.instances) or self.motion.shape[1] < 2 \
+                    or self.motion.shape[2:] != (3, 4):
+                raise SceneError(f"mesh '{name}': motion must have shape ({len(self.instances)}, S >= 2, 3, 4), "
+                                 f"got {self.motion.shape}")
+            if not np.all(np.isfinite(self.motion)):
+                raise SceneError(f"mesh '{name}': motion transforms are not finite")
+        if self.vertex_motion is not None:
+            shape = self.vertex_motion.shape
+            if self.vertex_motion.ndim != 3 or shape[0] < 2 or shape[1:] != (len(self.vertices), 3):
+                raise SceneError(f"mesh '{name}': vertex_motion must have shape (S >= 2, {len(self.vertices)}, 3), "
+                                 f"got {shape}")
+            if not np.all(np.isfinite(self.vertex_motion)):
+                raise SceneError(f"mesh '{name}': vertex_motion is not finite")
+        if self.corner_normal_motion is not None:
+            steps = self.vertex_motion_steps
+            shape = self.corner_normal_motion.shape
+            if not steps or self.corner_normal_motion.ndim != 4 or shape != (steps, n_tri, 3, 3):
+                raise SceneError(f"mesh '{name}': corner_normal_motion must have shape (S, {n_tri}, 3, 3) with "
+                                 f"the S steps of vertex_motion, got {shape}")
+            if not np.all(np.isfinite(self.corner_normal_motion)):
+                raise SceneError(f"mesh '{name}': corner_normal_motion is not finite")
+        if self.instances is not None:
+            linear = self.instances[:, :, :3]
+            det = np.linalg.det(linear) if len(linear) else np.zeros(0)
+            singular = int(np.count_nonzero(np.abs(det) <= 1e-30))
+            if singular:
+                warnings.append(f"mesh '{name}': {singular} instances with a singular transform ignored")
         return warnings
 
     def open_edge_count(self, triangle_mask: Optional[np.ndarray] = None) -> int:

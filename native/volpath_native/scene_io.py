@@ -9,7 +9,10 @@ A `.vpscene` file is a numpy `.npz` archive (uncompressed zip) holding
   additive to version 1) (RGB triples and vectors as JSON lists), and each light carries a
   `"type"`: "point", "spot", "area" or "sun".
 - for mesh i: arrays `mesh{i}.vertices` (V,3 float32), `mesh{i}.triangles` (T,3 int32),
-  `mesh{i}.material_ids` (T int32) and, when smooth, `mesh{i}.corner_normals` (T,3,3 float32).
+  `mesh{i}.material_ids` (T int32) and, when smooth, `mesh{i}.corner_normals` (T,3,3 float32);
+  additive to version 1, each with a header flag of its name set true: `mesh{i}.instances`
+  (K,3,4 float64), `mesh{i}.motion` (K,S,3,4 float64), `mesh{i}.vertex_motion` (S,V,3 float32),
+  `mesh{i}.corner_normal_motion` (S,T,3,3 float32) (scene.Mesh documents them).
 
 Readers reject files whose version is newer than theirs; older versions are upgraded here.
 """
@@ -31,6 +34,7 @@ FORMAT_NAME = "volpath-scene"
 FORMAT_VERSION = 1
 
 _LIGHT_NAMES = {cls: name for name, cls in _LIGHT_TYPES.items()}
+_PLACEMENT_FLAGS = ("instances", "motion", "vertex_motion", "corner_normal_motion")
 
 
 def _jsonable(value):
@@ -70,7 +74,16 @@ def _mesh_header(mesh) -> dict:
         header["attributes"] = list(mesh.corner_attributes)
     if mesh.object_frame is not None:
         header["framed"] = True
+    for flag, values in _PLACEMENT_ARRAYS(mesh).items():  # additive to version 1
+        if values is not None:
+            header[flag] = True
     return header
+
+
+def _PLACEMENT_ARRAYS(mesh) -> dict:
+    """Header flag (= array suffix) -> the mesh's instancing / motion array or None."""
+    return {"instances": mesh.instances, "motion": mesh.motion, "vertex_motion": mesh.vertex_motion,
+            "corner_normal_motion": mesh.corner_normal_motion}
 
 
 # The camera fields of format 1's first files; the others (depth of field, panoramic, motion
@@ -144,6 +157,9 @@ def save_scene(scene: sc.Scene, path) -> Path:
             arrays[f"mesh{i}.attribute{k}"] = values
         if mesh.object_frame is not None:
             arrays[f"mesh{i}.object_frame"] = mesh.object_frame
+        for flag, values in _PLACEMENT_ARRAYS(mesh).items():
+            if values is not None:
+                arrays[f"mesh{i}.{flag}"] = values
     with open(path, "wb") as f:  # a file object keeps numpy from appending ".npz"
         np.savez(f, **arrays)
     return path
@@ -252,6 +268,7 @@ def _build(header: dict, data, where: str) -> sc.Scene:
                 corner_attributes={name: data[f"mesh{i}.attribute{k}"]
                                    for k, name in enumerate(info.get("attributes", []))},
                 object_frame=data[f"mesh{i}.object_frame"] if info.get("framed") else None,
+                **{flag: data[f"mesh{i}.{flag}"] for flag in _PLACEMENT_FLAGS if info.get(flag)},
             ))
         from .shading.images import Image
         from .surface_programs import SurfaceProgram

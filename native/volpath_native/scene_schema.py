@@ -76,7 +76,8 @@ _PROGRAM_FIELDS = {"type": ("str", True), "name": ("str", True), "g": ("float", 
                    "grid_index_to_world": ("matrix4", False)}
 _PROGRAM_ARRAYS = {"program_code": 1, "program_init": 1, "program_tables": 1, "attributes": 4}
 _MESH_FIELDS = {"name": ("str", True), "smooth": ("bool", False), "attributes": ("list", False),
-                "framed": ("bool", False)}
+                "framed": ("bool", False), "instances": ("bool", False), "motion": ("bool", False),
+                "vertex_motion": ("bool", False), "corner_normal_motion": ("bool", False)}
 # A material's surface program (surface_programs.SurfaceProgram.to_record): checked by its
 # validate() when built; its arrays are material{i}.program_code / _init / _tables.
 _SURFACE_PROGRAM_FIELDS = {"name": ("str", False), "varying": ("bool", False), "bindings": ("list", False),
@@ -352,6 +353,32 @@ def _check_mesh_arrays(i: int, mesh: dict, arrays: dict, where: str):
             _fail(where, f"{path}.attributes[{k}]", f"shape {tuple(shape)}: expected ({tris[0]}, 3, 1..4)")
     if mesh.get("framed"):
         _require_array(arrays, f"mesh{i}.object_frame", where, f"{path}.object_frame", 3, (3, 4))
+    _check_placement_arrays(i, mesh, arrays, where, tris[0])
+
+
+def _check_placement_arrays(i: int, mesh: dict, arrays: dict, where: str, n_tri: int):
+    """Instances (K,3,4), motion (K,S,3,4), vertex_motion (S,V,3), corner_normal_motion (S,T,3,3)."""
+    path = f"meshes[{i}]"
+    instances = motion = steps = None
+    if mesh.get("instances"):
+        instances = _require_array(arrays, f"mesh{i}.instances", where, f"{path}.instances", 3, (3, 4))
+    if mesh.get("motion"):
+        if instances is None:
+            _fail(where, f"{path}.motion", "motion needs instances")
+        motion = _require_array(arrays, f"mesh{i}.motion", where, f"{path}.motion", 4)
+        if motion[0] != instances[0] or motion[1] < 2 or tuple(motion[2:]) != (3, 4):
+            _fail(where, f"{path}.motion", f"shape {tuple(motion)}: expected ({instances[0]}, S >= 2, 3, 4)")
+    if mesh.get("vertex_motion"):
+        vertices = arrays[f"mesh{i}.vertices"][0][0]
+        shape = _require_array(arrays, f"mesh{i}.vertex_motion", where, f"{path}.vertex_motion", 3)
+        if shape[0] < 2 or tuple(shape[1:]) != (vertices, 3):
+            _fail(where, f"{path}.vertex_motion", f"shape {tuple(shape)}: expected (S >= 2, {vertices}, 3)")
+        steps = shape[0]
+    if mesh.get("corner_normal_motion"):
+        shape = _require_array(arrays, f"mesh{i}.corner_normal_motion", where, f"{path}.corner_normal_motion", 4)
+        if steps is None or tuple(shape) != (steps, n_tri, 3, 3):
+            _fail(where, f"{path}.corner_normal_motion",
+                  f"shape {tuple(shape)}: expected (S, {n_tri}, 3, 3) with the S steps of vertex_motion")
 
 
 def _check_box(medium: dict, where: str, path: str):
@@ -398,6 +425,9 @@ def check_arrays(header: dict, data, where: str) -> None:
         if tris.size and (tris.min() < 0 or tris.max() >= len(vertices)):
             _fail(where, f"{path}.triangles", f"vertex index {int(tris.min() if tris.min() < 0 else tris.max())} "
                                               f"out of range ({len(vertices)} vertices)")
+        for flag in ("instances", "motion", "vertex_motion", "corner_normal_motion"):
+            if f"mesh{i}.{flag}" in data.files and not np.all(np.isfinite(data[f"mesh{i}.{flag}"])):
+                _fail(where, f"{path}.{flag}", "non-finite values")
         ids = data[f"mesh{i}.material_ids"]
         if ids.size and (ids.min() < 0 or ids.max() >= n_materials):
             _fail(where, f"{path}.material_ids", f"material index {int(ids.min() if ids.min() < 0 else ids.max())} "
