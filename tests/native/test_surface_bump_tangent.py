@@ -180,8 +180,9 @@ def _emitter_scene(program_emission):
     emitter = Material("lamp", base_color=np.zeros(3), emission=radiance)
     if program_emission is not None:
         b = ProgramBuilder("emission")
+        value = b.const(list(program_emission))
         emitter = Material("lamp", base_color=np.zeros(3), emission=radiance,
-                           surface_program=SurfaceProgram(b.build(), emission=b.const(list(program_emission))))
+                           surface_program=SurfaceProgram(b.build(), emission=value))
     camera = np.eye(4)
     camera[2, 3] = 4.0
     return Scene(camera=Camera(camera, fov=np.radians(60.0)), film=Film(6, 6, filter="box", filter_width=1.0),
