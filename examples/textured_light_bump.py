@@ -1,8 +1,8 @@
 """Surfaces driven by nodes beyond their colour (issue 11): a striped image on an Emission node
 lights the scene (seen by the camera, hit by bounces and sampled as a mesh light); a Principled
 card emits a Gradient texture through a Color Ramp; a sphere is bump-mapped by a Wave texture through a
-Bump node (Distance 0.04); a second sphere wears an image in Box projection (Object coordinates,
-Blend 0.3); all on a grey floor with a dim sky."""
+Bump node (Distance 0.15); a second sphere wears an image in Box projection (Object coordinates,
+Blend 0.3); all on a grey floor with a dim sky and a grazing area light from the left."""
 import sys
 from pathlib import Path
 
@@ -56,10 +56,10 @@ def bumped_material(name: str):
     bsdf = next(n for n in nodes if n.type == "BSDF_PRINCIPLED")
     coords = nodes.new("ShaderNodeTexCoord")
     wave = nodes.new("ShaderNodeTexWave")
-    wave.inputs["Scale"].default_value = 3.0
+    wave.inputs["Scale"].default_value = 0.6  # bands 0.52 m apart: several pixels wide
     links.new(coords.outputs["Object"], wave.inputs["Vector"])
     bump = nodes.new("ShaderNodeBump")
-    bump.inputs["Distance"].default_value = 0.04
+    bump.inputs["Distance"].default_value = 0.15
     links.new(wave.outputs["Fac"], bump.inputs["Height"])
     links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
     return mat
@@ -100,6 +100,8 @@ def build(resolution=(64, 64), samples=64):
     sb.add_uv_sphere(scene, "Bumpy sphere", (-0.7, 0.2, 0.45), 0.45, bumped_material("Bumpy sphere"))
     sb.add_uv_sphere(scene, "Boxed sphere", (0.75, 0.1, 0.45), 0.45, box_projected_material("Boxed sphere",
                                                                                           box_image("box")))
+    # a grazing light from the left shows the bumps' slopes
+    sb.add_area_light(scene, (-2.6, -1.2, 0.9), (-0.7, 0.2, 0.45), power_w=120.0, size=0.4)
     sb.set_world_background(scene, (0.6, 0.7, 0.9), 0.1)
     sb.add_camera(scene, (0.0, -3.2, 1.4), (0.0, 0.4, 0.6), lens_mm=30.0)
     return scene
