@@ -272,6 +272,12 @@ class MaterialTable:
             self.reporter.warn(f"material '{name}': no active Material Output node; rendered black (as Cycles)")
             return vp.Material(name=name, base_color=np.zeros(3))
         surface_socket, volume_socket = output.inputs["Surface"], output.inputs["Volume"]
+        displacement = output.inputs.get("Displacement")
+        if displacement is not None and _source_socket(displacement) is not None:
+            # Cycles turns it into a bump (displacement method 'Bump Only', the default) or moves
+            # the vertices; a Bump node on the Normal input is what VolPath evaluates
+            self.reporter.warn(f"material '{name}': node '{output.name}': the Displacement output is not evaluated by "
+                          "VolPath; rendered without displacement (use a Bump node on the Normal input)")
         has_surface = _source_socket(surface_socket) is not None
         has_volume = _source_socket(volume_socket) is not None
         program = self._volume_program(name, volume_socket) if has_volume else None

@@ -143,3 +143,32 @@ def test_box_projection(scene):
     (box,) = _opcodes(program.program, "IMAGE_BOX")
     assert program.program.init[box[4]] == np.float32(0.25)
     assert not any("Boxed" in w for w in warnings), warnings
+
+
+def test_unsupported_setups_are_warned_by_material_and_node(scene):
+    """What stays a fallback names its material and node: a Displacement output, two BSDFs with
+    different tangents, a linked Filter Width."""
+    def tree_fn(tree):
+        output = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
+        displacement = tree.nodes.new("ShaderNodeDisplacement")
+        tree.links.new(displacement.outputs[0], output.inputs["Displacement"])
+        first = tree.nodes.new("ShaderNodeBsdfGlossy")
+        first.inputs["Anisotropy"].default_value = 0.5
+        second = tree.nodes.new("ShaderNodeBsdfGlossy")
+        second.inputs["Anisotropy"].default_value = 0.5
+        tangent = tree.nodes.new("ShaderNodeTangent")
+        tree.links.new(tangent.outputs[0], second.inputs["Tangent"])
+        bump = tree.nodes.new("ShaderNodeBump")
+        noise = tree.nodes.new("ShaderNodeTexNoise")
+        tree.links.new(noise.outputs["Fac"], bump.inputs["Height"])
+        tree.links.new(noise.outputs["Fac"], bump.inputs["Filter Width"])
+        tree.links.new(bump.outputs[0], first.inputs["Normal"])
+        add = tree.nodes.new("ShaderNodeAddShader")
+        tree.links.new(first.outputs[0], add.inputs[0])
+        tree.links.new(second.outputs[0], add.inputs[1])
+        return add.outputs[0]
+    _, warnings = _export(scene, node_material("Odd", surface=tree_fn))
+    mine = [w for w in warnings if "material 'Odd'" in w]
+    assert any("Displacement" in w for w in mine), warnings
+    assert any("Tangent" in w and "differs" in w for w in mine), warnings
+    assert any("Filter Width" in w and "Bump" in w for w in mine), warnings
