@@ -86,7 +86,7 @@ class SurfaceShaderCompiler(ShaderCompiler):
 
     def shifted(self, compile_height, axis: int) -> int:
         """compile_height() (a register) compiled again with every hit input moved to P + ex
-        (axis 0) or P + ey (axis 1): Cycles' SHADER_BUMP_DX / DX copies of the height subgraph
+        (axis 0) or P + ey (axis 1): Cycles' SHADER_BUMP_DX / DY copies of the height subgraph
         (scene/shader_graph.cpp refine_bump_nodes). Inputs are swapped in around a fresh copy of
         the subgraph's nodes and swapped back after."""
         if self.bump_offsets < 0:
