@@ -201,3 +201,17 @@ def test_program_emission_matches_a_constant_emitter():
     np.testing.assert_allclose(programmed, constant, rtol=1e-9, atol=1e-12)
     doubled = render(_emitter_scene([6.0, 4.0, 2.0])).image
     assert not np.allclose(doubled, constant, rtol=1e-3)
+
+
+def test_new_program_outputs_survive_a_vpscene_round_trip(tmp_path):
+    from volpath_native import load_scene, save_scene
+
+    scene = _emitter_scene([3.0, 2.0, 1.0])
+    program = scene.materials[1].surface_program
+    scene.materials[0].surface_program = _bump_plane_program("uv")
+    scene.meshes[0].corner_attributes["uv:"] = np.zeros((2, 3, 2))
+    loaded = load_scene(save_scene(scene, tmp_path / "bumped.vpscene"))
+    assert loaded.materials[1].surface_program.emission == program.emission
+    bumped, original = loaded.materials[0].surface_program, scene.materials[0].surface_program
+    assert (bumped.normal, bumped.tangent, bumped.bump_offsets) == (original.normal, -1, original.bump_offsets)
+    assert bumped.shifts == original.shifts
