@@ -34,11 +34,18 @@ def _image_texture(c, node) -> dict:
     if extension not in EXTENSIONS:
         c.warn(node, f"extension {extension} is not supported; rendered Repeat")
     projection = node.projection
-    if projection not in _PROJECTIONS:
+    if projection == "BOX" and tiles:
+        c.warn(node, "Box projection of a UDIM image is not supported; rendered Flat")
+        projection = "FLAT"
+    if projection not in _PROJECTIONS and projection != "BOX":
         c.warn(node, f"projection {projection} is not supported; rendered Flat")
     table = c.table([v for pair in tiles for v in pair]) if tiles else 0
     vector = c.uv_vector(node)
     color, alpha = c.alloc(3), c.alloc()
+    if projection == "BOX":  # svm_node_tex_image_box: blended by the shading normal in object space
+        c.emit("IMAGE_BOX", index, INTERPOLATIONS.get(interpolation, 0), EXTENSIONS.get(extension, 0),
+               int(_linked(node, "Alpha")), c.const(float(node.projection_blend)), vector, P.R_N, color, alpha)
+        return {"Color": color, "Alpha": alpha}
     c.emit("IMAGE_TEXTURE", index, table, len(tiles), INTERPOLATIONS.get(interpolation, 0),
            EXTENSIONS.get(extension, 0), _PROJECTIONS.get(projection, 0), int(_linked(node, "Alpha")), vector, color,
            alpha)
@@ -114,14 +121,15 @@ def _texture_coordinate(c, node) -> dict:
     normal = c.alloc(3)
     c.emit("OBJECT_NORMAL", P.R_N, normal)
     outputs["Normal"] = normal
-    outputs["UV"] = _uv_attribute(c, node, "")
+    used = {link.from_socket.identifier for out in node.outputs for link in out.links}
+    # the active UV map only when read (an unused one would request, and warn about, a UV map)
+    outputs["UV"] = _uv_attribute(c, node, "") if "UV" in used else c.const([0.0, 0.0, 0.0])
     # Reflection: 2 dot(N, I) N - I, world space
     reflection, unused = c.alloc(3), c.alloc()
     minus_i = c.alloc(3)
     c.emit("VECTOR_MATH", P.VECTOR_MATH["SCALE"], P.R_I, P.R_I, P.R_I, c.const(-1.0), minus_i, unused)
     c.emit("VECTOR_MATH", P.VECTOR_MATH["REFLECT"], minus_i, P.R_N, P.R_N, c.const(1.0), reflection, unused)
     outputs["Reflection"] = reflection
-    used = {link.from_socket.identifier for out in node.outputs for link in out.links}
     for name in ("Camera", "Window"):
         if name in used:
             c.warn(node, f"output '{name}' is not evaluated by VolPath; read as 0")
@@ -129,12 +137,62 @@ def _texture_coordinate(c, node) -> dict:
     return outputs
 
 
+def radial_tangent(c, kind: int) -> int:
+    """A radial tangent around the Generated texture space's X, Y or Z axis (svm_node_tangent)."""
+    generated, out = c.alloc(3), c.alloc(3)
+    c.emit("TEXCO", P.TEXCO_GENERATED, generated)
+    c.emit("TANGENT", kind, generated, P.R_N, out)
+    return out
+
+
+_TANGENT_AXES = {"X": P.TANGENT_RADIAL_X, "Y": P.TANGENT_RADIAL_Y, "Z": P.TANGENT_RADIAL_Z}
+
+
+def _tangent(c, node) -> dict:
+    """TangentNode (C5 svm/tex_coord.h svm_node_tangent): radial around an axis of the Generated
+    coordinates, or the named UV map's MikkTSpace tangent ('' = the active-render map, Cycles'
+    ATTR_STD_UV_TANGENT; a mesh without it gives 0)."""
+    if node.direction_type == "UV_MAP":
+        reg = c.attribute_input(f"tangent:{node.uv_map}", 4)
+        out = c.alloc(3)
+        c.emit("TANGENT", P.TANGENT_UV, reg, P.R_N, out)
+        return {"Tangent": out}
+    return {"Tangent": radial_tangent(c, _TANGENT_AXES.get(node.axis, P.TANGENT_RADIAL_Z))}
+
+
+def _bump(c, node) -> dict:
+    """BumpNode (C5 svm/displace.h svm_node_set_bump): the Height subgraph at the hit and at the
+    hit moved along two directions of the surface (SurfaceShaderCompiler.shifted), the Normal
+    input (else the shading normal) bent by Distance x the height's surface gradient, mixed by
+    Strength. Filter Width is a constant of the node in Cycles (a link to it is ignored there too)."""
+    normal = c.vector_input(node, "Normal") if c._source(node.inputs["Normal"]) is not None else P.R_N
+    height = node.inputs["Height"]
+    if c._source(height) is None:  # nothing to differentiate: Cycles skips refine_bump_nodes
+        return {"Normal": normal}
+    width_socket = node.inputs.get("Filter Width")
+    filter_width = float(width_socket.default_value) if width_socket is not None else 1.0
+    if width_socket is not None and width_socket.is_linked:
+        c.warn(node, "input 'Filter Width' is linked; Cycles and VolPath use its own value")
+    if filter_width < 0.0:
+        c.warn(node, f"Filter Width {filter_width:g} is negative; rendered without the bump")
+    h_c = c.float_input(node, "Height")
+    h_x = c.shifted(lambda: c.float_input(node, "Height"), 0)
+    h_y = c.shifted(lambda: c.float_input(node, "Height"), 1)
+    out = c.alloc(3)
+    c.emit("BUMP", int(bool(node.invert)), normal, c.float_input(node, "Distance"), c.float_input(node, "Strength"),
+           c.const(max(filter_width, 0.0)), h_c, h_x, h_y, c.bump_offsets, c.bump_offsets + 3, out)
+    return {"Normal": out}
+
+
 def _geometry(c, node) -> dict:
-    """GeometryNode at a surface: Position, Normal (shading), True Normal, Incoming, Backfacing."""
+    """GeometryNode at a surface: Position, Normal (shading), True Normal, Incoming, Backfacing,
+    Tangent (primitive_tangent: the radial Z tangent of the Generated coordinates)."""
     position = c.alloc(3)
     c.emit("TEXCO", P.TEXCO_POSITION, position)
     outputs = {"Position": position, "Normal": P.R_N, "True Normal": P.R_NG, "Incoming": P.R_I,
                "Backfacing": P.R_BACKFACING}
+    if any(o.identifier == "Tangent" and o.is_linked for o in node.outputs):
+        outputs["Tangent"] = radial_tangent(c, P.TANGENT_RADIAL_Z)
     used = {link.from_socket.identifier for out in node.outputs for link in out.links}
     for out in node.outputs:
         if out.identifier not in outputs:
@@ -146,5 +204,6 @@ def _geometry(c, node) -> dict:
 
 SURFACE_NODE_COMPILERS = {
     "TEX_IMAGE": _image_texture, "UVMAP": _uv_map, "NORMAL_MAP": _normal_map, "VERTEX_COLOR": _color_attribute,
-    "ATTRIBUTE": _attribute, "TEX_COORD": _texture_coordinate, "NEW_GEOMETRY": _geometry,
+    "ATTRIBUTE": _attribute, "TEX_COORD": _texture_coordinate, "NEW_GEOMETRY": _geometry, "TANGENT": _tangent,
+    "BUMP": _bump,
 }

@@ -272,6 +272,12 @@ class MaterialTable:
             self.reporter.warn(f"material '{name}': no active Material Output node; rendered black (as Cycles)")
             return vp.Material(name=name, base_color=np.zeros(3))
         surface_socket, volume_socket = output.inputs["Surface"], output.inputs["Volume"]
+        displacement = output.inputs.get("Displacement")
+        if displacement is not None and _source_socket(displacement) is not None:
+            # Cycles turns it into a bump (displacement method 'Bump Only', the default) or moves
+            # the vertices; a Bump node on the Normal input is what VolPath evaluates
+            self.reporter.warn(f"material '{name}': node '{output.name}': the Displacement output is not evaluated by "
+                          "VolPath; rendered without displacement (use a Bump node on the Normal input)")
         has_surface = _source_socket(surface_socket) is not None
         has_volume = _source_socket(volume_socket) is not None
         program = self._volume_program(name, volume_socket) if has_volume else None
@@ -298,14 +304,21 @@ class MaterialTable:
         reader.program = SurfaceProgramCompiler(f"material '{name}'", self.reporter, self.images)
         surface = surface_terms(reader, _shader_node, surface_socket)
         program = None
+        emission = surface.emission
         try:
+            if surface.emission_regs:  # emission driven by nodes: the program's, weighed by its estimate
+                for reg in surface.emission_regs:
+                    reader.program.add_emission(reg)
+                if np.any(surface.emission != 0):
+                    reader.program.add_emission(reader.program.const(list(surface.emission)))
+                emission = surface.emitted_estimate()
             program = reader.program.program(surface.nodes, surface.bindings)
         except (KeyError, ValueError, TypeError, AttributeError) as error:
             self.reporter.warn(f"material '{name}': its textured inputs could not be compiled ({error}); "
                                "the inputs' own values are used")
         if program is not None:
             self.corner_requests[len(self.materials)] = reader.program.requested_attributes()
-        return vp.Material(name=name, surface="diffuse", base_color=np.zeros(3), emission=surface.emission,
+        return vp.Material(name=name, surface="diffuse", base_color=np.zeros(3), emission=emission,
                            medium=medium, surface_nodes=surface.nodes, surface_program=program)
 
 

@@ -27,22 +27,30 @@ BOUND_SOCKETS = {
         "Specular Tint": "specular_tint", "Transmission Weight": "transmission", "Coat Weight": "coat_weight",
         "Coat Roughness": "coat_roughness", "Coat IOR": "coat_ior", "Coat Tint": "coat_tint",
         "Sheen Weight": "sheen_weight", "Sheen Roughness": "sheen_roughness", "Sheen Tint": "sheen_tint",
-        "Subsurface Weight": "subsurface_weight"},
+        "Subsurface Weight": "subsurface_weight", "Anisotropic": "anisotropic",
+        "Anisotropic Rotation": "anisotropic_rotation"},
     "BSDF_DIFFUSE": {"Color": "color", "Roughness": "roughness"},
-    "BSDF_GLOSSY": {"Color": "color", "Roughness": "roughness"},
-    "BSDF_ANISOTROPIC": {"Color": "color", "Roughness": "roughness"},
+    "BSDF_GLOSSY": {"Color": "color", "Roughness": "roughness", "Anisotropy": "anisotropic",
+                    "Rotation": "anisotropic_rotation"},
+    "BSDF_ANISOTROPIC": {"Color": "color", "Roughness": "roughness", "Anisotropy": "anisotropic",
+                         "Rotation": "anisotropic_rotation"},
     "BSDF_GLASS": {"Color": "color", "Roughness": "roughness", "IOR": "ior"},
     "BSDF_REFRACTION": {"Color": "color", "Roughness": "roughness", "IOR": "ior"},
     "BSDF_METALLIC": {"Base Color": "color", "Edge Tint": "edge_tint", "Roughness": "roughness",
-                      "IOR": "conductor_n", "Extinction": "conductor_k"},
+                      "IOR": "conductor_n", "Extinction": "conductor_k", "Anisotropy": "anisotropic",
+                      "Rotation": "anisotropic_rotation"},
     "BSDF_TRANSPARENT": {"Color": "color"},
     "BSDF_TRANSLUCENT": {"Color": "color"},
     "BSDF_SHEEN": {"Color": "color", "Roughness": "roughness"},
 }
 _COLOR_FIELDS = {"color", "specular_tint", "coat_tint", "sheen_tint", "edge_tint", "conductor_n", "conductor_k"}
 # sockets whose variation VolPath cannot follow: warned, the socket's own value is used
-_UNSUPPORTED = ("Emission Color", "Emission Strength", "Anisotropic", "Anisotropic Rotation", "Anisotropy",
-                "Rotation", "Thin Film Thickness", "Thin Film IOR", "Subsurface Radius", "Subsurface Scale")
+_UNSUPPORTED = ("Thin Film Thickness", "Thin Film IOR", "Subsurface Radius", "Subsurface Scale")
+# emission inputs compiled into the material's emission (surfaces.py emission_terms)
+EMISSION_SOCKETS = {"EMISSION": ("Color", "Strength"), "BSDF_PRINCIPLED": ("Emission Color", "Emission Strength")}
+# the anisotropy input of each BSDF with a Tangent input (closures read the tangent only when it is > 0)
+ANISOTROPY_SOCKETS = {"BSDF_PRINCIPLED": "Anisotropic", "BSDF_GLOSSY": "Anisotropy", "BSDF_ANISOTROPIC": "Anisotropy",
+                      "BSDF_METALLIC": "Anisotropy"}
 
 
 class SurfaceShaderCompiler(ShaderCompiler):
@@ -58,6 +66,8 @@ class SurfaceShaderCompiler(ShaderCompiler):
         self.uses_uv = False  # reads the active-render UV map (R_UV)
         self.builder._varying.update(range(P.R_NG, P.R_NG + 3))
         self.builder._varying.add(P.R_BACKFACING)
+        self.bump_offsets = -1  # registers of the bump offsets ex, ey (6), once a Bump node needs them
+        self.shifts: dict = {}  # input name -> (input register, width, dx register, dy register)
 
     def emit(self, name: str, *operands: int):
         if name == "TEXCO" and operands[0] == P.TEXCO_UV:
@@ -73,6 +83,39 @@ class SurfaceShaderCompiler(ShaderCompiler):
         self.builder._varying.update(range(reg, reg + width))
         self.inputs.append((name, width, reg))
         return reg
+
+    def shifted(self, compile_height, axis: int) -> int:
+        """compile_height() (a register) compiled again with every hit input moved to P + ex
+        (axis 0) or P + ey (axis 1): Cycles' SHADER_BUMP_DX / DY copies of the height subgraph
+        (scene/shader_graph.cpp refine_bump_nodes). Inputs are swapped in around a fresh copy of
+        the subgraph's nodes and swapped back after."""
+        if self.bump_offsets < 0:
+            self.bump_offsets = self.alloc(6)
+            self.builder._varying.update(range(self.bump_offsets, self.bump_offsets + 6))
+        rows = [("P", P.R_P, 3)] + ([("uv:", P.R_UV, 3)] if self.uses_uv else []) + \
+            [(name, reg, width) for name, width, reg in self.inputs]
+        swaps = []
+        for name, reg, width in rows:
+            if name not in self.shifts:
+                dx, dy = self.alloc(width), self.alloc(width)
+                self.builder._varying.update(range(dx, dx + width))
+                self.builder._varying.update(range(dy, dy + width))
+                self.shifts[name] = (reg, width, dx, dy)
+            reg, width, dx, dy = self.shifts[name]
+            swaps.append((width, reg, (dx, dy)[axis]))
+        for width, reg, other in swaps:
+            self.emit("SWAP", width, reg, other)
+        saved, self._outputs = self._outputs, {}
+        try:
+            result = compile_height()
+        finally:
+            self._outputs = saved
+            for width, reg, other in swaps:
+                self.emit("SWAP", width, reg, other)
+        return result
+
+    def shift_list(self) -> list:
+        return [(name, width, dx, dy) for name, (_, width, dx, dy) in self.shifts.items()]
 
     def _compile_node(self, node) -> dict:
         from .shader_nodes_surface import SURFACE_NODE_COMPILERS
@@ -96,6 +139,9 @@ class SurfaceProgramCompiler:
         self.compiler = SurfaceShaderCompiler(owner, reporter, images)
         self.normal = -1
         self._normal_source = None
+        self.tangent = -1
+        self._tangent_source = None
+        self.emission = -1  # register of the material's varying emission (3), once there is one
 
     # -- what surfaces.py asks ------------------------------------------------------------------
     def is_varying(self, socket) -> bool:
@@ -110,7 +156,7 @@ class SurfaceProgramCompiler:
     def handles(self, node, socket) -> bool:
         """Whether reading this socket as a constant is right because the program drives it."""
         name = socket.name
-        if name in BOUND_SOCKETS.get(node.type, {}) or name == "Normal":
+        if name in BOUND_SOCKETS.get(node.type, {}) or name == "Normal" or name in EMISSION_SOCKETS.get(node.type, ()):
             return self.is_varying(socket)
         if node.type == "MIX_SHADER" and socket == node.inputs[0]:
             return self.is_varying(socket)
@@ -152,6 +198,52 @@ class SurfaceProgramCompiler:
         self._normal_source = key
         return True
 
+    def bind_tangent(self, node, name="Tangent") -> None:
+        """The anisotropic closures' tangent: the linked Tangent input, else Cycles' default
+        (scene/shader_graph.cpp default_inputs: Geometry > Tangent, the radial Z tangent of the
+        Generated coordinates, geom/primitive.h primitive_tangent). One per material."""
+        socket = node.inputs.get(name)
+        linked = socket is not None and self.compiler._source(socket) is not None
+        source = self.compiler._source(socket) if linked else None
+        key = ("default",) if source is None else (repr(source),) if isinstance(source, tuple) else \
+            (source.node.name, source.identifier)
+        if self.tangent >= 0:
+            if key != self._tangent_source:
+                self.reporter.warn(f"{self.owner}: node '{node.name}': input '{name}' differs from another BSDF's "
+                                   "tangent; VolPath uses one tangent per material (the first)")
+            return
+        if source is None:
+            from .shader_nodes_surface import radial_tangent
+
+            self.tangent = radial_tangent(self.compiler, P.TANGENT_RADIAL_Z)
+        else:
+            self.tangent = self.compiler.vector_input(node, name)
+        self._tangent_source = key
+
+    def add_emission(self, reg: int) -> None:
+        """Add a varying emission (3 registers, radiance) to the material's."""
+        if self.emission < 0:
+            self.emission = reg
+            return
+        out, unused = self.compiler.alloc(3), self.compiler.alloc()
+        self.compiler.emit("VECTOR_MATH", P.VECTOR_MATH["ADD"], self.emission, reg, reg, self.const(1.0), out, unused)
+        self.emission = out
+
+    def emission_of(self, node, color: str, strength: str, alpha: str = "") -> int:
+        """Registers of color x strength (x saturate(alpha)) of an emitting node."""
+        c = self.compiler
+        out = self.scale3(c.color_input(node, color), c.float_input(node, strength))
+        if alpha:
+            clamped = c.alloc()
+            c.emit("CLAMP", 0, c.float_input(node, alpha), c.const(0.0), c.const(1.0), clamped)
+            out = self.scale3(out, clamped)
+        return out
+
+    def scale3(self, reg: int, factor_reg: int) -> int:
+        out, unused = self.compiler.alloc(3), self.compiler.alloc()
+        self.compiler.emit("VECTOR_MATH", P.VECTOR_MATH["SCALE"], reg, reg, reg, factor_reg, out, unused)
+        return out
+
     def mix_weights(self, node) -> tuple:
         """Registers (1 - f, f) of a Mix Shader's varying factor, clamped as svm_node_mix_closure."""
         a, b = self.compiler.alloc(), self.compiler.alloc()
@@ -169,13 +261,14 @@ class SurfaceProgramCompiler:
     # -- result -----------------------------------------------------------------------------------
     def program(self, nodes: list, bindings: list):
         """The SurfaceProgram of the material (None when nothing varies)."""
-        if not bindings and self.normal < 0:
+        if not bindings and self.normal < 0 and self.tangent < 0 and self.emission < 0:
             return None
         program = self.compiler.builder.build()
-        return SurfaceProgram(program, list(bindings), list(self.compiler.inputs), self.normal)
+        return SurfaceProgram(program, list(bindings), list(self.compiler.inputs), self.normal, self.tangent,
+                              self.emission, self.compiler.bump_offsets, self.compiler.shift_list())
 
     def requested_attributes(self) -> set:
-        names = {name for name, _, _ in self.compiler.inputs}
+        names = {name for name, _, _ in self.compiler.inputs} | {n for n in self.compiler.shifts if n != "P"}
         return names | {ACTIVE_UV} if self.compiler.uses_uv else names
 
 

@@ -9,8 +9,9 @@ layering that depends on the view direction, so the exporter only copies the nod
 Supported: Principled, Diffuse, Glossy (Anisotropic), Glass, Refraction, Metallic (4.3+),
 Transparent, Translucent, Sheen (4.0+), Emission, Add / Mix Shader, Holdout (black, warned).
 Documented fallbacks, each warned naming material and node: an unsupported BSDF renders as a 0.8
-grey diffuse surface; tangents are not exported, so anisotropy renders isotropic; subsurface
-scattering renders as the diffuse layer (Cycles' random walk is not implemented).
+grey diffuse surface; subsurface scattering renders as the diffuse layer (Cycles' random walk is
+not implemented). Anisotropic BSDFs get their tangent from the material's surface program (the
+Tangent input, else Cycles' radial default); emission driven by nodes is the program's emission.
 """
 from __future__ import annotations
 
@@ -35,27 +36,48 @@ _DISTRIBUTIONS = {"MULTI_GGX": "multi_ggx", "GGX": "ggx", "BECKMANN": "beckmann"
 class SurfaceTerms:
     """A weighted list of BSDF nodes and the emitted radiance (W/(m^2 sr), both faces).
     bindings: (node index, field, register) of inputs a surface program drives
-    (surface_programs.py); program: that program's compiler, or None (constants only)."""
+    (surface_programs.py); program: that program's compiler, or None (constants only).
+    emission_regs: registers (3 each) of emission driven by nodes, already weighted, added to
+    the constant `emission`; emission_estimate: their size for light selection, as Cycles'
+    Shader::estimate_emission (a linked colour or strength counts 1)."""
 
     nodes: list = field(default_factory=list)
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
     bindings: list = field(default_factory=list)
     program: object = None
+    emission_regs: list = field(default_factory=list)
+    emission_estimate: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def scaled(self, w: float) -> "SurfaceTerms":
+        regs = self.emission_regs
+        if regs and w != 1.0:
+            factor = self.program.const(float(w))
+            regs = [self.program.scale3(r, factor) for r in regs]
         return SurfaceTerms([_reweighted(n, n.weight * w) for n in self.nodes], self.emission * w,
-                            scale_bound_weights(self.program, self.bindings, w), self.program)
+                            scale_bound_weights(self.program, self.bindings, w), self.program, regs,
+                            self.emission_estimate * w)
 
     def weighted_by(self, program, factor_reg: int) -> "SurfaceTerms":
-        """Every node's weight times a register (a varying Mix Shader factor)."""
-        return SurfaceTerms(list(self.nodes), self.emission, scale_weights(program, self.nodes, self.bindings,
-                                                                           factor_reg), program)
+        """Every node's weight and the emission times a register (a varying Mix Shader factor);
+        the emission estimate stays unweighted (Cycles' estimate for a linked factor)."""
+        regs = [program.scale3(r, factor_reg) for r in self.emission_regs]
+        estimate = self.emission_estimate
+        if np.any(self.emission > 0):
+            regs.append(program.scale3(program.const(list(self.emission)), factor_reg))
+            estimate = estimate + self.emission
+        return SurfaceTerms(list(self.nodes), np.zeros(3), scale_weights(program, self.nodes, self.bindings,
+                                                                         factor_reg), program, regs, estimate)
 
     def __add__(self, other: "SurfaceTerms") -> "SurfaceTerms":
         shift = len(self.nodes)
         return SurfaceTerms(self.nodes + other.nodes, self.emission + other.emission,
                             self.bindings + [(i + shift, f, r) for i, f, r in other.bindings],
-                            self.program or other.program)
+                            self.program or other.program, self.emission_regs + other.emission_regs,
+                            self.emission_estimate + other.emission_estimate)
+
+    def emitted_estimate(self) -> np.ndarray:
+        """What weighs this material's mesh lights: the constant emission plus the estimate."""
+        return self.emission + self.emission_estimate
 
 
 def _reweighted(node: SurfaceNode, weight: float) -> SurfaceNode:
@@ -75,6 +97,31 @@ def _distribution(reader, node, allowed=("multi_ggx", "ggx", "beckmann")) -> str
     return value
 
 
+def _emission_terms(reader, node, color: str, strength: str, alpha: str = "") -> SurfaceTerms:
+    """An emitting node's radiance color x strength (x alpha): constant, or a program's when any
+    input varies (Cycles' output_estimate_emission for the estimate)."""
+    program = getattr(reader, "program", None)
+    sockets = [node.inputs.get(name) for name in (color, strength, alpha) if name]
+    if program is None or not any(program.is_varying(s) for s in sockets if s is not None):
+        value = reader.rgb(node, color) * reader.scalar(node, strength)
+        if alpha:
+            value = value * float(np.clip(reader.scalar(node, alpha), 0.0, 1.0))
+        return SurfaceTerms(emission=value)
+    color_varies, strength_varies = program.is_varying(node.inputs[color]), program.is_varying(node.inputs[strength])
+    if (not strength_varies and reader.scalar(node, strength) == 0.0) or \
+            (not color_varies and not np.any(reader.rgb(node, color) != 0.0)):
+        return SurfaceTerms()  # emits nothing wherever the other inputs vary
+    estimate = np.ones(3) if color_varies else reader.rgb(node, color)
+    if not program.is_varying(node.inputs[strength]):
+        estimate = estimate * reader.scalar(node, strength)
+    try:
+        reg = program.emission_of(node, color, strength, alpha)
+    except (KeyError, ValueError, TypeError, AttributeError) as error:
+        reader.warn(node, f"its emission could not be compiled ({error}); the inputs' own values are used")
+        return SurfaceTerms(emission=reader.rgb(node, color) * reader.scalar(node, strength))
+    return SurfaceTerms(program=program, emission_regs=[reg], emission_estimate=np.maximum(estimate, 0.0))
+
+
 def _warn_linked(reader, node, names):
     program = getattr(reader, "program", None)
     for name in names:
@@ -87,11 +134,28 @@ def _warn_linked(reader, node, names):
 
 
 def _anisotropy(reader, node, name) -> float:
+    """The node's anisotropy; when it may be non-zero, the material's program computes the
+    tangent (Tangent input, else Cycles' radial default: SurfaceProgramCompiler.bind_tangent)."""
     socket = node.inputs.get(name)
     value = reader.scalar(node, socket) if socket is not None else 0.0
-    if value != 0.0:
-        reader.warn(node, f"{name} {value:g}: anisotropy needs tangents, rendered isotropic")
-    return 0.0
+    program = getattr(reader, "program", None)
+    varying = program is not None and program.is_varying(socket)
+    if value == 0.0 and not varying:
+        return 0.0
+    if program is None:
+        reader.warn(node, f"{name} {value:g}: anisotropy needs the material's tangents, rendered isotropic")
+        return 0.0
+    try:
+        program.bind_tangent(node)
+    except (KeyError, ValueError, TypeError, AttributeError) as error:
+        reader.warn(node, f"its Tangent could not be compiled ({error}); rendered isotropic")
+        return 0.0
+    return value
+
+
+def _rotation(reader, node, name) -> float:
+    socket = node.inputs.get(name)
+    return reader.scalar(node, socket) if socket is not None else 0.0
 
 
 def surface_terms(reader, shader_node_of, socket) -> SurfaceTerms:
@@ -107,23 +171,18 @@ def surface_terms(reader, shader_node_of, socket) -> SurfaceTerms:
     if kind == "MIX_SHADER":
         program = getattr(reader, "program", None)
         if program is not None and program.is_varying(node.inputs[0]):
-            # a varying factor: the node weights become program registers (svm_node_mix_closure)
+            # a varying factor: the node weights and emissions become program registers
+            # (svm_node_mix_closure)
             a, b = program.mix_weights(node)
             first = surface_terms(reader, shader_node_of, node.inputs[1])
             second = surface_terms(reader, shader_node_of, node.inputs[2])
-            if np.any(first.emission > 0) or np.any(second.emission > 0):
-                reader.warn(node, "emission under a varying Mix Shader factor is mixed with the factor's own "
-                                  "value (VolPath's emitters are constant per material)")
-            f = float(np.clip(reader.scalar(node, node.inputs[0]), 0.0, 1.0))
-            first, second = first.weighted_by(program, a), second.weighted_by(program, b)
-            first.emission, second.emission = first.emission * (1.0 - f), second.emission * f
-            return first + second
+            return first.weighted_by(program, a) + second.weighted_by(program, b)
         f = float(np.clip(reader.scalar(node, node.inputs[0]), 0.0, 1.0))
         return (surface_terms(reader, shader_node_of, node.inputs[1]).scaled(1.0 - f)
                 + surface_terms(reader, shader_node_of, node.inputs[2]).scaled(f))
     if kind == "EMISSION":
         # Emission closure radiance = colour x strength, both faces (kernel/closure/emissive.h).
-        return SurfaceTerms(emission=reader.rgb(node, "Color") * reader.scalar(node, "Strength"))
+        return _emission_terms(reader, node, "Color", "Strength")
     if kind == "HOLDOUT":
         reader.warn(node, "Holdout is rendered as a black surface (no alpha holdout in the film)")
         return SurfaceTerms()
@@ -146,10 +205,11 @@ def _diffuse(reader, node) -> SurfaceTerms:
 
 
 def _glossy(reader, node) -> SurfaceTerms:
-    _warn_linked(reader, node, ("Normal", "Tangent"))
+    _warn_linked(reader, node, ("Normal",))
     return SurfaceTerms([SurfaceNode(kind="glossy", color=reader.rgb(node, "Color"),
                                      roughness=reader.scalar(node, "Roughness"),
                                      anisotropic=_anisotropy(reader, node, "Anisotropy"),
+                                     anisotropic_rotation=_rotation(reader, node, "Rotation"),
                                      distribution=_distribution(reader, node))])
 
 
@@ -169,11 +229,12 @@ def _refraction(reader, node) -> SurfaceTerms:
 
 
 def _metallic(reader, node) -> SurfaceTerms:
-    _warn_linked(reader, node, ("Normal", "Tangent"))
+    _warn_linked(reader, node, ("Normal",))
     _thin_film(reader, node)
     physical = getattr(node, "fresnel_type", "F82") == "PHYSICAL_CONDUCTOR"
     values = dict(kind="metallic", roughness=reader.scalar(node, "Roughness"),
                   anisotropic=_anisotropy(reader, node, "Anisotropy"),
+                  anisotropic_rotation=_rotation(reader, node, "Rotation"),
                   fresnel="physical" if physical else "f82", distribution=_distribution(reader, node))
     # the evaluated node only has the sockets of its Fresnel mode
     if physical:
@@ -217,7 +278,7 @@ def _principled(reader, node) -> SurfaceTerms:
             return default
         return reader.rgb(node, socket) if isinstance(default, np.ndarray) else reader.scalar(node, socket)
 
-    _warn_linked(reader, node, ("Normal", "Tangent", "Coat Normal", "Clearcoat Normal"))
+    _warn_linked(reader, node, ("Normal", "Coat Normal", "Clearcoat Normal"))
     _thin_film(reader, node)
     if node.inputs.get("Specular IOR Level") is None:
         reader.warn(node, "Principled BSDF v1 (Blender < 4.0) is mapped onto the v2 layers "
@@ -240,16 +301,24 @@ def _principled(reader, node) -> SurfaceTerms:
         coat_weight=value("coat", 0.0), coat_roughness=value("coat_roughness", 0.03), coat_ior=value("coat_ior", 1.5),
         coat_tint=value("coat_tint", white), sheen_weight=value("sheen", 0.0),
         sheen_roughness=value("sheen_roughness", 0.5), sheen_tint=sheen_tint,
-        anisotropic=_anisotropy(reader, node, "Anisotropic"), subsurface_weight=subsurface,
+        anisotropic=_anisotropy(reader, node, "Anisotropic"),
+        anisotropic_rotation=_rotation(reader, node, "Anisotropic Rotation"), subsurface_weight=subsurface,
         distribution=_distribution(reader, node, ("multi_ggx", "ggx")))
     # Emission is added with the weight left after alpha (svm/closure.h principled emission);
     # Cycles also attenuates it by the sheen and coat albedo seen from the viewer, which VolPath
     # does not (the light sampler needs a view-independent emitter): README, knowingly differs.
-    emission = value("emission_color", np.ones(3)) * value("emission_strength", 0.0)
-    emission = emission * float(np.clip(terms.alpha, 0.0, 1.0))
-    if np.any(emission > 0) and (terms.coat_weight > 0 or terms.sheen_weight > 0):
+    color_socket = compat.principled_socket(node, "emission_color")
+    strength_socket = compat.principled_socket(node, "emission_strength")
+    alpha_socket = compat.principled_socket(node, "alpha")
+    if color_socket is None or strength_socket is None:
+        emitted = SurfaceTerms()
+    else:
+        emitted = _emission_terms(reader, node, color_socket.name, strength_socket.name,
+                                  alpha_socket.name if alpha_socket is not None else "")
+    if (np.any(emitted.emitted_estimate() > 0)) and (terms.coat_weight > 0 or terms.sheen_weight > 0):
         reader.warn(node, "emission under coat or sheen is not attenuated by them (Cycles attenuates it)")
-    return SurfaceTerms([terms], emission)
+    return SurfaceTerms([terms], emitted.emission, emission_regs=emitted.emission_regs,
+                        emission_estimate=emitted.emission_estimate, program=emitted.program)
 
 
 _CONVERTERS = {

@@ -204,10 +204,17 @@ def _sample_area(T, row, px, py, pz, u1, u2, ellipse):
 
 
 @stage_kernel
+def triangle_sample_barycentrics(u1, u2):
+    """Barycentrics (b1, b2) of corners 1 and 2 of the point _sample_triangle draws from (u1, u2)
+    (uniform by area); a textured emitter is evaluated there (path_kernels)."""
+    su = np.sqrt(u1)
+    return 1.0 - su, u2 * su
+
+
+@stage_kernel
 def _sample_triangle(T, row, px, py, pz, u1, u2):
     """Emissive triangle, uniform by area (Cycles kernel/light/triangle.h area sampling)."""
-    su = np.sqrt(u1)
-    b1, b2 = 1.0 - su, u2 * su
+    b1, b2 = triangle_sample_barycentrics(u1, u2)
     b0 = 1.0 - b1 - b2
     c = T.corners[T.triangle[row]]
     yx = c[0, 0] * b0 + c[1, 0] * b1 + c[2, 0] * b2

@@ -102,11 +102,17 @@ class LightSet:
             self.triangle[s] = self.emissive_tris
             mats = accel.material_ids[self.emissive_tris]
             self.strength[s] = emission[mats]
+            # a material whose emission is a surface program: unit strength here, the program's
+            # radiance is multiplied in where the light is hit or sampled (surface_programs.py);
+            # its constant emission is an estimate that only weighs the light's selection
+            textured = np.array([_has_program_emission(m) for m in materials], dtype=bool)
+            if textured.any():
+                self.strength[s] = np.where(textured[mats][:, None], 1.0, self.strength[s])
             self.two_sided[s] = two_sided[mats]
             self.normal[s] = accel.normals[self.emissive_tris]
             self.area[s] = accel.areas[self.emissive_tris]
             self.position[s] = accel.triangle_corners(self.emissive_tris).mean(axis=1)
-            power[s] = self.strength[s].mean(axis=1) * self.area[s] * np.pi * np.where(self.two_sided[s], 2, 1)
+            power[s] = emission[mats].mean(axis=1) * self.area[s] * np.pi * np.where(self.two_sided[s], 2, 1)
         if n > self.n_lamps + n_tri:
             self.kind[-1] = WORLD
             self.strength[-1] = self.world_radiance
@@ -255,6 +261,11 @@ class LightSet:
             if lamp_crossing_many(self.tables, k, o, d, tmin, tmax, t, radiance, pdf):
                 out.append((t, radiance, pdf, bool(self.camera_visible[row])))
         return out
+
+
+def _has_program_emission(material) -> bool:
+    program = getattr(material, "surface_program", None)
+    return program is not None and int(getattr(program, "emission", -1)) >= 0
 
 
 def _f64(a) -> np.ndarray:

@@ -28,21 +28,21 @@ from collections import namedtuple
 
 import numpy as np
 
-from .bsdfs.closures import (LABEL_DIFFUSE, LABEL_TRANSMIT, LABEL_TRANSPARENT, setup_surface,
+from .bsdfs.closures import (LABEL_DIFFUSE, LABEL_TRANSMIT, LABEL_TRANSPARENT, setup_surface_tangent,
                              surface_eval, surface_sample, surface_transparency)
 from .camera import camera_ray1, ray_time1
 from .film import filter_offset1
 from .grid_kernels import STREAM_DIMENSIONS, grid_attenuation, grid_free_flight, grid_scattering, grid_transmittance
 from .jit import inline_stage_kernel, stage_kernel
-from .light_kernels import (escaped_emission_mis, lamp_crossing, light_has_position, light_position, sample_light,
-                     select_light, triangle_emission)
+from .light_kernels import (TRIANGLE, escaped_emission_mis, lamp_crossing, light_has_position, light_position,
+                            sample_light, select_light, triangle_emission, triangle_sample_barycentrics)
 from .media import (channel_probabilities1, distance_pdf1, emission_integral1, equiangular_pdf1,
                     equiangular_sample1, equiangular_setup1, sample_distance1, sample_distance_truncated1,
                     transmittance1, transmittance3, truncated_distance_pdf1)
 from .mis import mis_weight, power_heuristic
 from .phase import hg_eval1, hg_sample1
 from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, LENS_U_DIM, LENS_V_DIM, SHUTTER_TIME_DIM, path_key1, uniform1
-from .surface_programs import shade_surface_program
+from .surface_programs import has_program_emission, program_emission, shade_surface_program
 
 # F columns
 O, D, BETA, PREV = 0, 3, 6, 9
@@ -452,13 +452,13 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
                 _add_radiance(L, pid, _mul3(beta, emission_integral1(em, st, t_seg)))
             if in_grid:
                 if not tat and n_lights > 0:
-                    n_shadow = _grid_nee(S, T, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
+                    n_shadow = _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
                                          Q, n_shadow, margin)
                 beta, scatter, t_scatter, event_g, grid_event = _grid_segment(
                     S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat)
             elif not tat and _max3(ss) > 0.0:
                 if n_lights > 0:
-                    n_shadow = _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
+                    n_shadow = _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
                                            Q, n_shadow, margin)
                 # free flight (untruncated; reaching the surface is the survival event)
                 pc = channel_probabilities1(beta, ss, st, 1.0, 1.0, 1.0)
@@ -549,18 +549,18 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
 
 
 @inline_stage_kernel
-def _medium_light_sample(T, K, p, iteration, row, o, d, t):
+def _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t):
     """The next-event vertex x = o + t d of a medium segment and a sample of light `row` from it:
     (x, wi, dist, value, light pdf, cos(d, wi)), shared by homogeneous and grid NEE."""
     x = (o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t)
-    wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, x[0], x[1], x[2],
-                                                           _u(K, p, iteration, D_MED_LU),
-                                                           _u(K, p, iteration, D_MED_LV))
-    return x, (wx, wy, wz), dist, (v0, v1, v2), light_pdf, d[0] * wx + d[1] * wy + d[2] * wz
+    u1, u2 = _u(K, p, iteration, D_MED_LU), _u(K, p, iteration, D_MED_LV)
+    wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, x[0], x[1], x[2], u1, u2)
+    value = _textured_light_value(S, T, SP, SPS, row, u1, u2, (wx, wy, wz), (v0, v1, v2))
+    return x, (wx, wy, wz), dist, value, light_pdf, d[0] * wx + d[1] * wy + d[2] * wz
 
 
 @inline_stage_kernel
-def _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q, n_shadow, margin):
+def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q, n_shadow, margin):
     """One next-event vertex on the segment [0, t_end] (see module docstring)."""
     mode = S.volume_sampling
     row = select_light(T, _u(K, p, iteration, D_MED_SELECT))
@@ -589,7 +589,7 @@ def _medium_nee(S, T, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q,
         pdf_t += (1.0 - prob_eq) * truncated_distance_pdf1(st, pc, tr, t_end)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
-    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(T, K, p, iteration, row, o, d, t)
+    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t)
     if S.mixed_phase and _phase_is_mixed(S, C, p):
         scattering, phase = _phase_mixture_eval(S, C, p, cos_theta)
     else:
@@ -640,6 +640,31 @@ def _shading_normal(S, prim, hu, hv, n_face):
 
 
 @inline_stage_kernel
+def _textured_light_value(S, T, SP, SPS, row, u1, u2, w, value):
+    """A light sample's value, times the emitter's radiance at the sampled point when the light is
+    a triangle whose material's emission is a surface program (unit strength in the light table,
+    surface_programs.py); the pdf is unchanged. w: unit direction to the light."""
+    if T.kind[row] != TRIANGLE:
+        return value
+    prim = T.triangle[row]
+    material = S.tri_material[prim]
+    if not has_program_emission(SP, material):
+        return value
+    hu, hv = triangle_sample_barycentrics(u1, u2)
+    c = T.corners[prim]
+    w0 = 1.0 - hu - hv
+    y = (c[0, 0] * w0 + c[1, 0] * hu + c[2, 0] * hv, c[0, 1] * w0 + c[1, 1] * hu + c[2, 1] * hv,
+         c[0, 2] * w0 + c[1, 2] * hu + c[2, 2] * hv)
+    ng = (S.normals[prim, 0], S.normals[prim, 1], S.normals[prim, 2])
+    wi = (-w[0], -w[1], -w[2])  # from the emitter towards the shading point
+    front = _dot3(wi, ng) > 0.0
+    n_face = _scale3(ng, 1.0 if front else -1.0)
+    ns = _shading_normal(S, prim, hu, hv, n_face)
+    e = program_emission(SP, SPS, material, prim, hu, hv, y[0], y[1], y[2], ns, n_face, wi, not front)
+    return _mul3(value, e)
+
+
+@inline_stage_kernel
 def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, t, hu, hv, L, Q, n_shadow, margin, stats):
     """Shade a surface hit with its material's closures (bsdfs.closures); returns (continues,
     shadow queue length). Cycles kernel/integrator/shade_surface.h: emission, light sampling
@@ -658,35 +683,39 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, t, hu, h
     pid = I[p, PID]
     beta = _get3(F, p, BETA)
     pb = (F[p, O] + d[0] * t, F[p, O + 1] + d[1] * t, F[p, O + 2] + d[2] * t)
+    sign = 1.0 if front else -1.0
+    n_face = _scale3(ng, sign)  # geometric normal on the viewer's side
+    ns = _shading_normal(S, prim, hu, hv, n_face)
+    wi_view = (-d[0], -d[1], -d[2])
     # emission (two-sided by default), MIS against the light-sampling pdf
     if S.tri_emissive[prim]:
         prev = _get3(F, p, PREV)
         r0, r1, r2, lpdf = triangle_emission(T, prim, prev[0], prev[1], prev[2], d[0], d[1], d[2],
                                              F[p, TRAVELLED] + t, front)
+        if has_program_emission(SP, S.tri_material[prim]):  # textured: unit strength x the program's
+            e = program_emission(SP, SPS, S.tri_material[prim], prim, hu, hv, pb[0], pb[1], pb[2], ns, n_face,
+                                 wi_view, not front)
+            r0, r1, r2 = r0 * e[0], r1 * e[1], r2 * e[2]
         _add_radiance(L, pid, _scale3(_mul3(beta, (r0, r1, r2)), mis_weight(F[p, PREV_PDF], lpdf)))
     if I[p, TAT] != 0:  # terminate-after-transparent paths end here
         return False, n_shadow
-    sign = 1.0 if front else -1.0
-    n_face = _scale3(ng, sign)  # geometric normal on the viewer's side
-    ns = _shading_normal(S, prim, hu, hv, n_face)
-    wi_view = (-d[0], -d[1], -d[2])
-    nodes, row, n_closure = SN, S.tri_material[prim], ns
+    nodes, row, n_closure, tangent = SN, S.tri_material[prim], ns, (0.0, 0.0, 0.0)
     if SP.any and SP.mat_program[row] >= 0:
-        # textured inputs: this hit's node values in SPS.nodes (material 0 there), and its normal
-        n_closure = shade_surface_program(SP, SPS, SN, row, prim, hu, hv, pb[0], pb[1], pb[2], ns, n_face,
-                                          wi_view, not front)
+        # textured inputs: this hit's node values in SPS.nodes (material 0 there), normal, tangent
+        n_closure, tangent = shade_surface_program(SP, SPS, SN, row, prim, hu, hv, pb[0], pb[1], pb[2], ns, n_face,
+                                                   wi_view, not front)
         nodes, row = SPS.nodes, 0
-    count = setup_surface(nodes, BT, row, wi_view, n_closure, n_face, not front, CB)
+    count = setup_surface_tangent(nodes, BT, row, wi_view, n_closure, n_face, not front, tangent, CB)
     if count == 0:  # black: absorbs everything
         return False, n_shadow
     above = (pb[0] + n_face[0] * eps, pb[1] + n_face[1] * eps, pb[2] + n_face[2] * eps)
     below = (pb[0] - n_face[0] * eps, pb[1] - n_face[1] * eps, pb[2] - n_face[2] * eps)
     if T.count > 0:
         row = select_light(T, _u(K, p, iteration, D_SURF_SELECT))
-        wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, above[0], above[1], above[2],
-                                                               _u(K, p, iteration, D_SURF_LU),
-                                                               _u(K, p, iteration, D_SURF_LV))
+        u1, u2 = _u(K, p, iteration, D_SURF_LU), _u(K, p, iteration, D_SURF_LV)
+        wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, above[0], above[1], above[2], u1, u2)
         wi = (wx, wy, wz)
+        v0, v1, v2 = _textured_light_value(S, T, SP, SPS, row, u1, u2, wi, (v0, v1, v2))
         f, bsdf_pdf = surface_eval(CB, count, BT, wi_view, wi, ns, n_face)
         if _max3(f) > 0.0:
             w = power_heuristic(light_pdf, bsdf_pdf) if light_pdf > 0.0 else 1.0
@@ -816,7 +845,7 @@ def _grid_phase_mixture(S, GR, C, p, x, ss_hom, g_hom, cos_theta):
 
 
 @inline_stage_kernel
-def _grid_nee(S, T, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q, n_shadow, margin):
+def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q, n_shadow, margin):
     """Next-event vertex per segment for paths inside grid volumes: the distance is drawn by
     equiangular sampling (positional lights) or uniformly on the bounded segment, one-sample MIS
     of the two; sigma_s and transmittance come from the grids (ratio tracking)."""
@@ -842,7 +871,7 @@ def _grid_nee(S, T, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, 
     pdf_t = prob_eq * equiangular_pdf1(setup, t) + ((1.0 - prob_eq) / te if finite else 0.0)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
-    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(T, K, p, iteration, row, o, d, t)
+    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t)
     f, phase_pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, cos_theta)
     w = power_heuristic(light_pdf, phase_pdf) if light_pdf > 0.0 else 1.0
     contrib = _scale3(_mul3(_mul3(_mul3(beta, transmittance3(st, t)), f), value), w / pdf_t)
@@ -897,17 +926,17 @@ def shadow_step(S, GR, SN, BT, CB, SP, SPS, Q, m, hit_t, hit_prim, hit_u, hit_v,
             front = _dot3(d, ng) < 0.0
             if not S.tri_null[prim]:
                 n_face = _scale3(ng, 1.0 if front else -1.0)
-                nodes, row, n_closure = SN, S.tri_material[prim], n_face
+                nodes, row, n_closure, tangent = SN, S.tri_material[prim], n_face, (0.0, 0.0, 0.0)
                 wi = (-d[0], -d[1], -d[2])
                 if SP.any and SP.mat_program[row] >= 0:  # textured alpha / transparency
                     ns = _shading_normal(S, prim, hit_u[q], hit_v[q], n_face)
                     x = _get3(SF, q, S_O)
                     t_hit = hit_t[q]
-                    n_closure = shade_surface_program(SP, SPS, SN, row, prim, hit_u[q], hit_v[q],
-                                                      x[0] + d[0] * t_hit, x[1] + d[1] * t_hit, x[2] + d[2] * t_hit,
-                                                      ns, n_face, wi, not front)
+                    n_closure, tangent = shade_surface_program(
+                        SP, SPS, SN, row, prim, hit_u[q], hit_v[q], x[0] + d[0] * t_hit, x[1] + d[1] * t_hit,
+                        x[2] + d[2] * t_hit, ns, n_face, wi, not front)
                     nodes, row = SPS.nodes, 0
-                count = setup_surface(nodes, BT, row, wi, n_closure, n_face, not front, CB)
+                count = setup_surface_tangent(nodes, BT, row, wi, n_closure, n_face, not front, tangent, CB)
                 tr = _mul3(tr, surface_transparency(CB, count))
         for c in range(3):
             SF[q, S_CONTRIB + c] *= tr[c]

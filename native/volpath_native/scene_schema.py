@@ -81,7 +81,8 @@ _MESH_FIELDS = {"name": ("str", True), "smooth": ("bool", False), "attributes": 
 # A material's surface program (surface_programs.SurfaceProgram.to_record): checked by its
 # validate() when built; its arrays are material{i}.program_code / _init / _tables.
 _SURFACE_PROGRAM_FIELDS = {"name": ("str", False), "varying": ("bool", False), "bindings": ("list", False),
-                           "inputs": ("list", False), "normal": ("int", False)}
+                           "inputs": ("list", False), "normal": ("int", False), "tangent": ("int", False),
+                           "emission": ("int", False), "bump_offsets": ("int", False), "shifts": ("list", False)}
 _IMAGE_FIELDS = {"name": ("str", True), "compress_as_srgb": ("bool", False)}
 _SECTIONS = ("camera", "film", "world", "settings", "materials", "media", "lights", "meshes", "images")
 # Largest JSON document read (bytes): a scene of 10^5 objects is far below it.

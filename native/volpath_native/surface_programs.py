@@ -12,8 +12,25 @@ At a hit of that material the path stage (path_kernels._surface, shadow_step):
 2. runs the program with the hit object's frame (Texture Coordinate Object / Generated);
 3. copies the material's SurfaceNode rows into a per-thread scratch table and overwrites the
    bound fields for this hit (non-finite values read as 0), and takes the program's normal
-   output (Normal Map) as the closures' normal;
+   output (Normal Map, Bump) as the closures' normal and its tangent output (Tangent input of
+   anisotropic BSDFs) as their tangent;
 4. expands the scratch rows into closures exactly as a constant material.
+
+A program with Bump nodes also gets its inputs at two points moved from the hit in the plane of
+the geometric normal, P + ex and P + ey (`bump_offsets`: the registers of ex, ey; `shifts`: where
+each moved input goes); the program swaps them in to evaluate the height there
+(shading/program.py OP_BUMP). Cycles moves by the ray footprint (filter width x dPdx, dPdy,
+kernel/svm/attribute.h svm_node_bump_P_dx); VolPath moves by BUMP_OFFSET x max(|P|, 1) along
+make_orthonormals(Ng), so its normal is the limit of Cycles' as the footprint shrinks:
+normalize(N - Distance (grad h - (grad h . N) / (Ng . N) Ng)) with grad h in the triangle's
+plane (README: where a height varies within a tenth of a pixel, Cycles' finite footprint filters it).
+
+A program may also compute the material's emitted radiance (textured Emission / Principled
+emission): `emission` names its register. The mesh-light rows of such a material carry a unit
+strength (lights.py) and the path stage multiplies in the program's emission at the point hit
+or sampled on the light (program_emission), so the light-sampling pdf and MIS weights stay
+those of a constant emitter, as in Cycles where the emission shader is evaluated at the
+sampled point (kernel/light/triangle.h, integrator/shade_surface.h).
 
 Attributes are addressed by name: "uv:<map>" ("uv:" is the active-render map), "color:<name>",
 "tangent:<map>" (4 channels: MikkTSpace tangent and sign). A mesh without an attribute reads 0
@@ -54,12 +71,21 @@ class SurfaceProgram:
         read three registers.
     inputs: [(attribute name, width, register)]: per-corner attributes written before each run.
     normal: register of the closures' normal (3), or -1 (the interpolated normal).
+    tangent: register of the anisotropic closures' tangent (3, world space), or -1 (none).
+    emission: register of the emitted radiance (3, W/(m^2 sr)), or -1 (the material's constant).
+    bump_offsets: first of 6 registers the kernel fills with ex, ey (Bump nodes), or -1.
+    shifts: [(input, width, dx register, dy register)]: an input ("P" the position, else an
+        attribute name as in `inputs`, "uv:" the active-render map) at P + ex and P + ey.
     """
 
     program: ShaderProgram
     bindings: list = field(default_factory=list)
     inputs: list = field(default_factory=list)
     normal: int = -1
+    tangent: int = -1
+    emission: int = -1
+    bump_offsets: int = -1
+    shifts: list = field(default_factory=list)
 
     def validate(self, nodes: list, where: str) -> None:
         """Raise ValueError for bindings or inputs outside the program or the material."""
@@ -76,8 +102,18 @@ class SurfaceProgram:
         for name, width, register in self.inputs:
             if not (isinstance(name, str) and 1 <= int(width) <= 4 and 0 <= int(register) <= regs - int(width)):
                 raise ValueError(f"{where}: bad attribute input {name!r} ({width} at {register})")
-        if self.normal != -1 and not 0 <= int(self.normal) <= regs - 3:
-            raise ValueError(f"{where}: normal register {self.normal} outside the {regs} registers")
+        if self.bump_offsets != -1 and not 0 <= int(self.bump_offsets) <= regs - 6:
+            raise ValueError(f"{where}: bump offset registers {self.bump_offsets} outside the {regs} registers")
+        for name, width, dx, dy in self.shifts:
+            if not (isinstance(name, str) and 1 <= int(width) <= 4 and 0 <= int(dx) <= regs - int(width)
+                    and 0 <= int(dy) <= regs - int(width)):
+                raise ValueError(f"{where}: bad bump input {name!r} ({width} at {dx}, {dy})")
+        if self.shifts and self.bump_offsets == -1:
+            raise ValueError(f"{where}: bump inputs without bump offsets")
+        for what in ("normal", "tangent", "emission"):
+            reg = int(getattr(self, what))
+            if reg != -1 and not 0 <= reg <= regs - 3:
+                raise ValueError(f"{where}: {what} register {reg} outside the {regs} registers")
         self._check_literals(where)
 
     def _check_literals(self, where: str) -> None:
@@ -98,6 +134,15 @@ class SurfaceProgram:
                                      "out of range")
             elif name == "NORMAL_MAP" and not 0 <= operands[0] <= 4:
                 raise ValueError(f"{where}: normal map space {operands[0]} out of range")
+            elif name == "TANGENT" and not 0 <= operands[0] <= 3:
+                raise ValueError(f"{where}: tangent kind {operands[0]} out of range")
+            elif name == "IMAGE_BOX" and not (0 <= operands[1] <= 2 and 0 <= operands[2] <= 3):
+                raise ValueError(f"{where}: box image texture options {operands[1]}, {operands[2]} out of range")
+            elif name == "SWAP":
+                count, x, y = operands
+                if not (0 <= count <= 4 and x + count <= self.program.n_registers
+                        and y + count <= self.program.n_registers):
+                    raise ValueError(f"{where}: SWAP of {count} registers at {x}, {y} outside the program")
             pc += 1 + len(spec.operands)
 
     def drives(self, nodes: list) -> set:
@@ -107,7 +152,10 @@ class SurfaceProgram:
     def to_record(self):
         header = {"name": self.program.name, "varying": bool(self.program.varying),
                   "bindings": [[int(i), str(n), int(r)] for i, n, r in self.bindings],
-                  "inputs": [[str(n), int(w), int(r)] for n, w, r in self.inputs], "normal": int(self.normal)}
+                  "inputs": [[str(n), int(w), int(r)] for n, w, r in self.inputs], "normal": int(self.normal),
+                  "tangent": int(self.tangent), "emission": int(self.emission),
+                  "bump_offsets": int(self.bump_offsets),
+                  "shifts": [[str(n), int(w), int(x), int(y)] for n, w, x, y in self.shifts]}
         arrays = {"code": self.program.code, "init": self.program.init, "tables": self.program.tables}
         return header, arrays
 
@@ -116,7 +164,10 @@ class SurfaceProgram:
         program = ShaderProgram(str(header.get("name", "surface")), arrays["code"], arrays["init"],
                                 arrays["tables"], varying=bool(header.get("varying", True)))
         return cls(program, [(int(i), str(n), int(r)) for i, n, r in header.get("bindings", [])],
-                   [(str(n), int(w), int(r)) for n, w, r in header.get("inputs", [])], int(header.get("normal", -1)))
+                   [(str(n), int(w), int(r)) for n, w, r in header.get("inputs", [])], int(header.get("normal", -1)),
+                   int(header.get("tangent", -1)), int(header.get("emission", -1)),
+                   int(header.get("bump_offsets", -1)),
+                   [(str(n), int(w), int(x), int(y)) for n, w, x, y in header.get("shifts", [])])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -128,10 +179,17 @@ SurfaceProgramTables = namedtuple("SurfaceProgramTables", [
     "code", "init", "tables",  # every program's arrays, concatenated
     "prog",           # (n_programs, 6) int64 code start/end, init start/end, tables start/end
     "prog_normal",    # (n_programs,) int64 normal register or -1
+    "prog_tangent",   # (n_programs,) int64 tangent register or -1
+    "prog_emission",  # (n_programs,) int64 emission register or -1
     "prog_bind",      # (n_programs, 2) int64 first binding, count
     "bind",           # (n_bindings, 3) int64 node row within the material, field code, register
     "prog_input",     # (n_programs, 2) int64 first input, count
     "input",          # (n_inputs, 3) int64 corner channel (-1: the mesh has none), width, register
+    "prog_bump",      # (n_programs,) int64 bump offset registers or -1
+    "prog_shift",     # (n_programs, 2) int64 first shift, count
+    "shift",          # (n_shifts, 5) int64 channel (-2: position, -1: none), channel width, register
+                      # width, dx register, dy register
+    "tri_corners",    # (n_tri, 3, 3) float64 world-space corners (only when some program bumps)
     "uv_channel",     # int: corner channel of the active-render UV map (-1: none anywhere)
     "corner",         # (n_tri, 3, channels) float32 per-corner attributes
     "tri_mesh",       # (n_tri,) int32 mesh of each triangle
@@ -150,7 +208,7 @@ def surface_program_tables(materials, accel, images_table=None) -> SurfaceProgra
     programs = [m.surface_program for m in materials if getattr(m, "surface_program", None) is not None]
     names = []
     for p in programs:
-        for name, width, _ in p.inputs:
+        for name in [n for n, _, _ in p.inputs] + [n for n, _, _, _ in p.shifts if n != "P"]:
             if name not in names:
                 names.append(name)
     if any(True for _ in programs) and ACTIVE_UV not in names:
@@ -163,9 +221,13 @@ def surface_program_tables(materials, accel, images_table=None) -> SurfaceProgra
     code, init, tables = [], [], []
     prog = np.zeros((max(len(programs), 1), 6), np.int64)
     prog_normal = np.full(max(len(programs), 1), -1, np.int64)
+    prog_tangent = np.full(max(len(programs), 1), -1, np.int64)
+    prog_emission = np.full(max(len(programs), 1), -1, np.int64)
     prog_bind = np.zeros((max(len(programs), 1), 2), np.int64)
     prog_input = np.zeros((max(len(programs), 1), 2), np.int64)
-    binds, inputs = [], []
+    prog_bump = np.full(max(len(programs), 1), -1, np.int64)
+    prog_shift = np.zeros((max(len(programs), 1), 2), np.int64)
+    binds, inputs, shifts = [], [], []
     sizes = [0, 0, 0]
     k = 0
     for m, material in enumerate(materials):
@@ -183,21 +245,33 @@ def surface_program_tables(materials, accel, images_table=None) -> SurfaceProgra
         init.append(p.init)
         tables.append(p.tables)
         prog_normal[k] = int(sp.normal)
+        prog_tangent[k] = int(sp.tangent)
+        prog_emission[k] = int(sp.emission)
         prog_bind[k] = (len(binds), len(sp.bindings))
         binds += [(int(i), BIND_CODES[n], int(r)) for i, n, r in sp.bindings]
         prog_input[k] = (len(inputs), len(sp.inputs))
         inputs += [(channels.get(n, (-1, 0))[0] if channels.get(n, (-1, 0))[1] >= int(w) else -1, int(w), int(r))
                    for n, w, r in sp.inputs]
+        prog_bump[k] = int(sp.bump_offsets)
+        prog_shift[k] = (len(shifts), len(sp.shifts))
+        for name, width, dx, dy in sp.shifts:
+            channel, have = (-2, 3) if name == "P" else channels.get(name, (-1, 0))
+            shifts.append((channel, min(int(have), int(width)), int(width), int(dx), int(dy)))
         k += 1
     uv = channels.get(ACTIVE_UV, (-1, 0))[0]
+    bumps = any(p.bump_offsets >= 0 for p in programs)
     return SurfaceProgramTables(
         any=bool(programs), mat_program=mat_program,
         code=np.concatenate(code).astype(np.int32) if code else np.zeros(1, np.int32),
         init=np.concatenate(init) if init else np.zeros(1), tables=np.concatenate(tables) if tables else np.zeros(1),
-        prog=prog, prog_normal=prog_normal, prog_bind=prog_bind,
+        prog=prog, prog_normal=prog_normal, prog_tangent=prog_tangent, prog_emission=prog_emission, prog_bind=prog_bind,
         bind=np.array(binds, np.int64).reshape(-1, 3) if binds else np.zeros((1, 3), np.int64),
         prog_input=prog_input,
         input=np.array(inputs, np.int64).reshape(-1, 3) if inputs else np.zeros((1, 3), np.int64),
+        prog_bump=prog_bump, prog_shift=prog_shift,
+        shift=np.array(shifts, np.int64).reshape(-1, 5) if shifts else np.zeros((1, 5), np.int64),
+        tri_corners=np.ascontiguousarray(accel.corners, np.float64) if bumps and accel.triangle_count
+        else np.zeros((1, 3, 3)),
         uv_channel=int(uv), corner=corner, tri_mesh=np.ascontiguousarray(accel.mesh_ids, np.int32)
         if len(accel.mesh_ids) else np.zeros(1, np.int32),
         frames=accel.mesh_frames(), no_grid=np.zeros((1, 1, 1, 1), np.float32), no_world_to_index=np.zeros((3, 4)),
@@ -327,14 +401,64 @@ def _set_rgb(D, row, code, r, g, b):
     A[row, 2] = b
 
 
+#: Bump sampling offset relative to max(|P|, 1) (surface_programs docstring): small against any
+#: height detail, large against float32 texture coordinates' rounding.
+BUMP_OFFSET = 1e-5
+
+
 @stage_kernel
-def shade_surface_program(SP, SS, SN, material, prim, hu, hv, px, py, pz, ns, ng, wi, backfacing):
-    """Run material `material`'s program at a hit (triangle prim, barycentrics hu, hv, point p,
-    shading normal ns and geometric normal ng on the viewer's side, wi towards the viewer) and
-    write the material's nodes with this hit's inputs into SS.nodes (its material 0). Returns the
-    closures' normal."""
-    k = SP.mat_program[material]
-    c0, c1, i0, i1, t0, t1 = SP.prog[k, 0], SP.prog[k, 1], SP.prog[k, 2], SP.prog[k, 3], SP.prog[k, 4], SP.prog[k, 5]
+def _bump_inputs(SP, init, k, prim, hu, hv, px, py, pz, ng):
+    """Fill program k's bump registers: the offsets ex, ey (orthogonal, in the plane of ng, both of
+    length BUMP_OFFSET max(|P|, 1)) and each shifted input at P + ex, P + ey, with the
+    triangle's barycentrics moved accordingly (attributes extrapolate linearly past its edges,
+    as Cycles' differentials)."""
+    size = BUMP_OFFSET * max(abs(px), abs(py), abs(pz), 1.0)
+    # make_orthonormals (C5 util/math_float3.h)
+    if ng[0] != ng[1] or ng[0] != ng[2]:
+        ax, ay, az = ng[2] - ng[1], ng[0] - ng[2], ng[1] - ng[0]
+    else:
+        ax, ay, az = ng[2] - ng[1], ng[0] + ng[2], -ng[1] - ng[0]
+    la = np.sqrt(ax * ax + ay * ay + az * az)
+    ax, ay, az = ax / la, ay / la, az / la
+    bx, by, bz = ng[1] * az - ng[2] * ay, ng[2] * ax - ng[0] * az, ng[0] * ay - ng[1] * ax
+    o = SP.prog_bump[k]
+    e = ((ax * size, ay * size, az * size), (bx * size, by * size, bz * size))
+    for i in range(2):
+        for c in range(3):
+            init[o + 3 * i + c] = e[i][c]
+    # barycentric change of a move e in the triangle's plane
+    c = SP.tri_corners[prim]
+    e1 = (c[1, 0] - c[0, 0], c[1, 1] - c[0, 1], c[1, 2] - c[0, 2])
+    e2 = (c[2, 0] - c[0, 0], c[2, 1] - c[0, 1], c[2, 2] - c[0, 2])
+    nx, ny, nz = e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]
+    nn = nx * nx + ny * ny + nz * nz
+    s0, n_shift = SP.prog_shift[k, 0], SP.prog_shift[k, 1]
+    for i in range(2):
+        ex, ey, ez = e[i]
+        du = dv = 0.0
+        if nn > 0.0:
+            du = ((ey * e2[2] - ez * e2[1]) * nx + (ez * e2[0] - ex * e2[2]) * ny + (ex * e2[1] - ey * e2[0]) * nz) / nn
+            dv = ((e1[1] * ez - e1[2] * ey) * nx + (e1[2] * ex - e1[0] * ez) * ny + (e1[0] * ey - e1[1] * ex) * nz) / nn
+        u, v = hu + du, hv + dv
+        w0 = 1.0 - u - v
+        for j in range(s0, s0 + n_shift):
+            channel, have, width = SP.shift[j, 0], SP.shift[j, 1], SP.shift[j, 2]
+            reg = SP.shift[j, 3 + i]
+            for ch in range(width):
+                if channel == -2:
+                    value = (px, py, pz)[ch] + e[i][ch]
+                elif channel >= 0 and ch < have:
+                    value = _corner(SP, prim, w0, u, v, channel + ch)
+                else:
+                    value = 0.0
+                init[reg + ch] = value
+
+
+@stage_kernel
+def _run_at_hit(SP, SS, k, prim, hu, hv, px, py, pz, ns, ng, wi, backfacing):
+    """Run program k at a hit: fill the inputs (module docstring, step 1), run; SS.regs holds
+    the result."""
+    i0, i1, t0, t1 = SP.prog[k, 2], SP.prog[k, 3], SP.prog[k, 4], SP.prog[k, 5]
     init = SS.init
     n_regs = i1 - i0
     for i in range(n_regs):
@@ -356,9 +480,21 @@ def shade_surface_program(SP, SS, SN, material, prim, hu, hv, px, py, pz, ns, ng
         channel, width, reg = SP.input[j, 0], SP.input[j, 1], SP.input[j, 2]
         for c in range(width):
             init[reg + c] = _corner(SP, prim, w0, hu, hv, channel + c) if channel >= 0 else 0.0
+    if SP.prog_bump[k] >= 0:
+        _bump_inputs(SP, init, k, prim, hu, hv, px, py, pz, ng)
+    run_program(SP.code[SP.prog[k, 0]:SP.prog[k, 1]], init[:n_regs], SP.tables[t0:t1], SS.regs,
+                SP.frames[SP.tri_mesh[prim]], SP.no_grid, SP.no_world_to_index, px, py, pz, SP.images)
+
+
+@stage_kernel
+def shade_surface_program(SP, SS, SN, material, prim, hu, hv, px, py, pz, ns, ng, wi, backfacing):
+    """Run material `material`'s program at a hit (triangle prim, barycentrics hu, hv, point p,
+    shading normal ns and geometric normal ng on the viewer's side, wi towards the viewer) and
+    write the material's nodes with this hit's inputs into SS.nodes (its material 0). Returns the
+    closures' normal and tangent ((0, 0, 0): none)."""
+    k = SP.mat_program[material]
+    _run_at_hit(SP, SS, k, prim, hu, hv, px, py, pz, ns, ng, wi, backfacing)
     regs = SS.regs
-    run_program(SP.code[c0:c1], init[:n_regs], SP.tables[t0:t1], regs, SP.frames[SP.tri_mesh[prim]], SP.no_grid,
-                SP.no_world_to_index, px, py, pz, SP.images)
     # the material's rows, then this hit's values
     D = SS.nodes
     start, count = SN.node_start[material], SN.node_count[material]
@@ -373,10 +509,33 @@ def shade_surface_program(SP, SS, SN, material, prim, hu, hv, px, py, pz, ns, ng
             _set_float(D, row, code, _finite(regs[reg]))
         else:
             _set_rgb(D, row, code, _finite(regs[reg]), _finite(regs[reg + 1]), _finite(regs[reg + 2]))
+    tangent = (0.0, 0.0, 0.0)
+    r = SP.prog_tangent[k]
+    if r >= 0:
+        tangent = (_finite(regs[r]), _finite(regs[r + 1]), _finite(regs[r + 2]))
+    normal = ns
     r = SP.prog_normal[k]
     if r >= 0:
         x, y, z = regs[r], regs[r + 1], regs[r + 2]
         length = np.sqrt(x * x + y * y + z * z)
         if length > 0.0 and length < np.inf:  # safe_normalize of the Normal input (svm/closure.h)
-            return x / length, y / length, z / length
-    return ns
+            normal = (x / length, y / length, z / length)
+    return normal, tangent
+
+
+@stage_kernel
+def has_program_emission(SP, material):
+    """Whether material's emission comes from its program (program_emission)."""
+    return SP.any and SP.mat_program[material] >= 0 and SP.prog_emission[SP.mat_program[material]] >= 0
+
+
+@stage_kernel
+def program_emission(SP, SS, material, prim, hu, hv, px, py, pz, ns, ng, wi, backfacing):
+    """The emitted radiance of material `material` at a point of triangle prim (arguments as
+    shade_surface_program); negative or non-finite channels read as 0 (Cycles' emission
+    closure keeps the weight as given; a negative emitter would break light sampling here)."""
+    k = SP.mat_program[material]
+    _run_at_hit(SP, SS, k, prim, hu, hv, px, py, pz, ns, ng, wi, backfacing)
+    r = SP.prog_emission[k]
+    regs = SS.regs
+    return (max(_finite(regs[r]), 0.0), max(_finite(regs[r + 1]), 0.0), max(_finite(regs[r + 2]), 0.0))

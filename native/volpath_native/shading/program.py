@@ -151,6 +151,25 @@ NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3,
 # Texture Coordinate Normal on surfaces: the shading normal in object space (svm/tex_coord.h
 # NODE_TEXCO_NORMAL, object_inverse_normal_transform)
 OP_OBJECT_NORMAL = define("OBJECT_NORMAL", 62, "in3", "out3")
+# Tangent node and Geometry > Tangent (C5 svm/tex_coord.h svm_node_tangent, geom/primitive.h
+# primitive_tangent): kind# TANGENT_RADIAL_X/Y/Z read vector3 as Generated coordinates, TANGENT_UV
+# as the UV map's object-space MikkTSpace tangent; the result is in world space, orthogonal to
+# normal3 (the interpolated shading normal).
+OP_TANGENT = define("TANGENT", 63, "kind#", "vector3", "normal3", "out3")
+TANGENT_RADIAL_X, TANGENT_RADIAL_Y, TANGENT_RADIAL_Z, TANGENT_UV = range(4)
+# Bump node (C5 svm/displace.h svm_node_set_bump, scene/shader_graph.cpp refine_bump_nodes): the
+# height subgraph is compiled three times, at the hit and at the hit moved by the offsets ex3 and
+# ey3 (in the plane of the geometric normal; the kernel writes them, surface_programs.py), between
+# SWAPs that exchange the hit's inputs with the moved point's. h_c, h_x, h_y: the three heights.
+OP_BUMP = define("BUMP", 64, "invert#", "normal3", "distance", "strength", "filter_width", "h_c", "h_x", "h_y", "ex3",
+                 "ey3", "out3")
+# exchange count# registers at a with those at b (a bump copy's inputs, and back)
+OP_SWAP = define("SWAP", 65, "count#", "a", "b")
+# Image Texture with Box projection (C5 svm/image.h svm_node_tex_image_box): the image sampled on
+# the three axis planes of vector3, blended by the object-space normal3 with blend (Projection
+# Blend); options as IMAGE_TEXTURE.
+OP_IMAGE_BOX = define("IMAGE_BOX", 66, "image#", "interpolation#", "extension#", "unassociate#", "blend", "vector3",
+                      "normal3", "out_color3", "out_alpha")
 
 # Math kinds (Blender's NODE_MATH_* enum values: DNA_node_types.h), used by the compiler by name.
 MATH_KINDS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "SINE", "COSINE", "TANGENT", "ARCSINE", "ARCCOSINE",

@@ -8,7 +8,8 @@ import math
 
 from ..jit import stage_kernel
 from .images import image_texture
-from .program import OP_IMAGE_TEXTURE, OP_NORMAL_MAP, OP_OBJECT_NORMAL, R_BACKFACING
+from .program import (OP_BUMP, OP_IMAGE_BOX, OP_IMAGE_TEXTURE, OP_NORMAL_MAP, OP_OBJECT_NORMAL, OP_SWAP, OP_TANGENT, R_BACKFACING,
+                      TANGENT_UV)
 
 _PI = math.pi
 
@@ -129,6 +130,116 @@ def _normal_map(regs, frame, space, strength, c, t, sign, n):
 
 
 @stage_kernel
+def _tangent(regs, frame, kind, v, n):
+    """svm_node_tangent (C5 svm/tex_coord.h): a radial tangent around an axis through the centre
+    of the Generated texture space, or the UV map's tangent; object_normal_transform to the
+    world, then cross(N, normalize(cross(T, N))). A missing UV tangent stays 0 (Cycles stores
+    zero), as does a degenerate one (Cycles' normalize would give NaN there)."""
+    x, y, z = regs[v], regs[v + 1], regs[v + 2]
+    if kind == TANGENT_UV:
+        tx, ty, tz = x, y, z
+    elif kind == 0:
+        tx, ty, tz = 0.0, -(z - 0.5), y - 0.5
+    elif kind == 1:
+        tx, ty, tz = -(z - 0.5), 0.0, x - 0.5
+    else:
+        tx, ty, tz = -(y - 0.5), x - 0.5, 0.0
+    if tx == 0.0 and ty == 0.0 and tz == 0.0:
+        return 0.0, 0.0, 0.0
+    tx, ty, tz = _world_normal(frame, tx, ty, tz)
+    nx, ny, nz = regs[n], regs[n + 1], regs[n + 2]
+    cx, cy, cz = _safe_normalize(ty * nz - tz * ny, tz * nx - tx * nz, tx * ny - ty * nx)
+    return ny * cz - nz * cy, nz * cx - nx * cz, nx * cy - ny * cx
+
+
+@stage_kernel
+def _bump(regs, invert, n, distance, strength, filter_width, hc, hx, hy, ex, ey):
+    """svm_node_set_bump (C5 svm/displace.h) with the heights sampled at the hit moved by ex, ey
+    (Cycles: by filter_width x dPdx, dPdy). Cycles' filter_width |det(dPdx, dPdy)| N becomes
+    |det(ex, ey)| N once both are written in the moved offsets (the common 1 / filter_width
+    drops out of the normalisation); a zero filter width samples the centre thrice: no bump."""
+    nx, ny, nz = regs[n], regs[n + 1], regs[n + 2]
+    if not filter_width > 0.0:
+        return nx, ny, nz
+    ax, ay, az = regs[ex], regs[ex + 1], regs[ex + 2]
+    bx, by, bz = regs[ey], regs[ey + 1], regs[ey + 2]
+    # Rx = cross(dPdy, N), Ry = cross(N, dPdx)
+    rxx, rxy, rxz = by * nz - bz * ny, bz * nx - bx * nz, bx * ny - by * nx
+    ryx, ryy, ryz = ny * az - nz * ay, nz * ax - nx * az, nx * ay - ny * ax
+    det = ax * rxx + ay * rxy + az * rxz
+    dhx, dhy = regs[hx] - regs[hc], regs[hy] - regs[hc]
+    scale = -distance if invert else distance
+    s = -scale if det < 0.0 else scale
+    ad = abs(det)
+    ox, oy, oz = _safe_normalize(ad * nx - s * (dhx * rxx + dhy * ryx), ad * ny - s * (dhx * rxy + dhy * ryy),
+                                 ad * nz - s * (dhx * rxz + dhy * ryz))
+    if (ox == 0.0 and oy == 0.0 and oz == 0.0) or not (math.isfinite(ox) and math.isfinite(oy)
+                                                      and math.isfinite(oz)):
+        return nx, ny, nz
+    k = max(strength, 0.0)
+    return _safe_normalize(k * ox + (1.0 - k) * nx, k * oy + (1.0 - k) * ny, k * oz + (1.0 - k) * nz)
+
+
+@stage_kernel
+def _box_weights(nx, ny, nz, blend):
+    """The three planes' weights of svm_node_tex_image_box for the object-space normal."""
+    ax, ay, az = abs(nx), abs(ny), abs(nz)
+    total = ax + ay + az
+    if total > 0.0:
+        ax, ay, az = ax / total, ay / total, az / total
+    limit = 0.5 * (1.0 + blend)
+    wx = wy = wz = 0.0
+    if ax > limit * (ax + ay) and ax > limit * (ax + az):
+        wx = 1.0
+    elif ay > limit * (ax + ay) and ay > limit * (ay + az):
+        wy = 1.0
+    elif az > limit * (ax + az) and az > limit * (ay + az):
+        wz = 1.0
+    elif blend > 0.0:
+        if az < (1.0 - limit) * (ay + ax):
+            wx = min(max((ax / (ax + ay) - 0.5 * (1.0 - blend)) / blend, 0.0), 1.0)
+            wy = 1.0 - wx
+        elif ax < (1.0 - limit) * (ay + az):
+            wy = min(max((ay / (ay + az) - 0.5 * (1.0 - blend)) / blend, 0.0), 1.0)
+            wz = 1.0 - wy
+        elif ay < (1.0 - limit) * (ax + az):
+            wx = min(max((ax / (ax + az) - 0.5 * (1.0 - blend)) / blend, 0.0), 1.0)
+            wz = 1.0 - wx
+        else:
+            wx = ((2.0 - limit) * ax + (limit - 1.0)) / (2.0 * limit - 1.0)
+            wy = ((2.0 - limit) * ay + (limit - 1.0)) / (2.0 * limit - 1.0)
+            wz = ((2.0 - limit) * az + (limit - 1.0)) / (2.0 * limit - 1.0)
+    else:  # "desperate mode": one side
+        wx = 1.0
+    return wx, wy, wz
+
+
+@stage_kernel
+def _image_box(regs, images, frame, index, interpolation, extension, unassociate, blend, v, n):
+    """svm_node_tex_image_box (C5 svm/image.h): planes mapped so that no texture is flipped."""
+    sx, sy, sz = _object_normal(frame, regs[n], regs[n + 1], regs[n + 2])
+    wx, wy, wz = _box_weights(sx, sy, sz, blend)
+    x, y, z = regs[v], regs[v + 1], regs[v + 2]
+    r = g = b = alpha = 0.0
+    for axis in range(3):
+        w = wx if axis == 0 else (wy if axis == 1 else wz)
+        if not w > 0.0:
+            continue
+        if axis == 0:
+            u, t = (1.0 - y if sx < 0.0 else y), z
+        elif axis == 1:
+            u, t = (1.0 - x if sy > 0.0 else x), z
+        else:
+            u, t = (1.0 - y if sz > 0.0 else y), x
+        cr, cg, cb, ca = image_texture(images, index, u, t, interpolation, extension, unassociate)
+        r += w * cr
+        g += w * cg
+        b += w * cb
+        alpha += w * ca
+    return r, g, b, alpha
+
+
+@stage_kernel
 def run_surface_op(op, code, a, regs, tables, images, frame):
     """Execute surface opcode `op` whose operands start at code[a]."""
     if op == OP_IMAGE_TEXTURE:
@@ -151,6 +262,25 @@ def run_surface_op(op, code, a, regs, tables, images, frame):
                                  code[a + 5])
         o = code[a + 6]
         regs[o], regs[o + 1], regs[o + 2] = ox, oy, oz
+    elif op == OP_TANGENT:
+        tx, ty, tz = _tangent(regs, frame, code[a], code[a + 1], code[a + 2])
+        o = code[a + 3]
+        regs[o], regs[o + 1], regs[o + 2] = tx, ty, tz
+    elif op == OP_BUMP:
+        ox, oy, oz = _bump(regs, code[a] != 0, code[a + 1], regs[code[a + 2]], regs[code[a + 3]], regs[code[a + 4]],
+                           code[a + 5], code[a + 6], code[a + 7], code[a + 8], code[a + 9])
+        o = code[a + 10]
+        regs[o], regs[o + 1], regs[o + 2] = ox, oy, oz
+    elif op == OP_IMAGE_BOX:
+        r, g, b, alpha = _image_box(regs, images, frame, code[a], code[a + 1], code[a + 2], code[a + 3] != 0,
+                                    regs[code[a + 4]], code[a + 5], code[a + 6])
+        o = code[a + 7]
+        regs[o], regs[o + 1], regs[o + 2] = r, g, b
+        regs[code[a + 8]] = alpha
+    elif op == OP_SWAP:
+        x, y = code[a + 1], code[a + 2]
+        for c in range(code[a]):
+            regs[x + c], regs[y + c] = regs[y + c], regs[x + c]
     elif op == OP_OBJECT_NORMAL:  # Texture Coordinate > Normal (NODE_TEXCO_NORMAL)
         i = code[a]
         ox, oy, oz = _object_normal(frame, regs[i], regs[i + 1], regs[i + 2])
