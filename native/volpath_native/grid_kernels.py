@@ -55,14 +55,14 @@ GridTables = namedtuple("GridTables", [
     "sigma_a",            # (3,) float64
     "emission",           # (3,) float64 constant emission inside the padded box, W/(m^3 sr)
     "majorant",           # (R0,R1,R2) float64 scalar majorant per cell (free flight, plain ratio tracking)
-    "minorant",           # (R0,R1,R2,3) float64 per-channel lower bound of sigma_t per cell (residual control)
-    "residual_rate",      # (R0,R1,R2) float64 bound of sigma_t - minorant per cell (residual ratio tracking)
+    "control",            # (R0,R1,R2,3) float64 per-channel control extinction per cell (residual ratio tracking)
+    "residual_rate",      # (R0,R1,R2) float64 bound of |sigma_t - control| per cell (residual ratio tracking)
     "cell_shape",         # (3,) int64 majorant cells per axis
     "index_to_cell",      # (3,) float64 scale from index space to majorant-cell space
     "g",                  # float, Henyey-Greenstein anisotropy
-    "flags",              # (3,) int64 counters written by the kernels: see FLAG_*
+    "flags",              # (N_FLAGS,) int64 counters written by the kernels: see FLAG_*
     "stop",               # (1,) int64 non-zero: abandon tracking (the render was cancelled)
-    "violation",          # (2,5) float64 last majorant / minorant violation: value, bound, world x, y, z
+    "violation",          # (2,5) float64 last majorant / residual violation: value, bound, world x, y, z
     # Shader-program media (program_medium.ProgramMedium): the coefficients at a point are the
     # program's volume closures instead of the grids above (shading/interpreter.py).
     "has_program",        # bool
@@ -86,8 +86,10 @@ _STOP_CHECK_MASK = 255
 # Tracking modes of _track, as numpy scalars: a Python int constant would be typed as a literal
 # and compile a separate copy of the tracker per mode.
 _FREE_FLIGHT, _TRANSMITTANCE, _RATIO = np.int64(0), np.int64(1), np.int64(2)
-#: G.flags entries: bound violations (debug checks) and calls ended by the step budget.
-FLAG_MAJORANT, FLAG_MINORANT, FLAG_BUDGET = 0, 1, 2
+#: G.flags entries: bound violations (debug checks), calls ended by the step budget, and the
+#: coefficient lookups (tentative collisions) of each tracking mode: FLAG_LOOKUPS + mode.
+FLAG_MAJORANT, FLAG_RESIDUAL, FLAG_BUDGET, FLAG_LOOKUPS = 0, 1, 2, 3
+N_FLAGS = FLAG_LOOKUPS + 3
 
 # Tolerances of the bound checks (float32 grids, float64 arithmetic).
 _REL_TOL, _ABS_TOL = 1e-4, 1e-7
@@ -260,6 +262,94 @@ def _dda_start(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
     return True, t_enter, t_exit, cx, cy, cz, nx, ny, nz, ex, ey, ez, sx, sy, sz
 
 
+# ---------------------------------------------------------------------------------------------
+# The control extinction as a distance distribution (next-event vertices in grid media)
+# ---------------------------------------------------------------------------------------------
+@inline_stage_kernel
+def _control_piece(a, b, sigma, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q):
+    """Account one piece [a, b) of constant control extinction: the depth reached, where the
+    target depth falls, the depth and extinction at t_query."""
+    if a <= t_query < b:
+        depth_q, sigma_q = depth + sigma * (t_query - a), sigma
+    step = sigma * (b - a)
+    if not found and sigma > 0.0 and depth + step >= target:
+        found, t_found, sigma_found = True, min(a + (target - depth) / sigma, b), sigma
+    return depth + step, found, t_found, sigma_found, depth_q, sigma_q
+
+
+@stage_kernel
+def grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, target, t_query):
+    """Walk the piecewise-constant control extinction sigma_c(t) = channel mean of the cell's control
+    + sigma_extra (a homogeneous medium around) over [0, t_end] of a unit ray, without lookups.
+    Returns (depth of [0, t_end], found, t where the depth reaches `target`, sigma_c there,
+    depth of [0, t_query], sigma_c at t_query). sigma_c x exp(-depth) is a distance distribution
+    that follows the medium cell by cell (path_kernels._grid_nee samples and evaluates it)."""
+    depth = 0.0
+    found = False
+    t_found = t_end
+    sigma_found = 0.0
+    depth_q = 0.0
+    sigma_q = sigma_extra
+    active, t, t_exit, cx, cy, cz, nx, ny, nz, ex, ey, ez, sx, sy, sz = _dda_start(
+        G, ox, oy, oz, dx, dy, dz, 0.0, t_end)
+    if not active:
+        t, t_exit = t_end, t_end
+    depth, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
+        0.0, t, sigma_extra, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
+    rx, ry, rz = G.cell_shape[0], G.cell_shape[1], G.cell_shape[2]
+    c = G.control
+    while active:
+        axis, crossing = _next_crossing(nx, ny, nz)
+        cell_end = min(crossing, t_exit)
+        sigma = sigma_extra + (c[cx, cy, cz, 0] + c[cx, cy, cz, 1] + c[cx, cy, cz, 2]) * (1.0 / 3.0)
+        depth, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
+            t, cell_end, sigma, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
+        t = cell_end
+        if axis == 0:
+            cx += sx
+            nx += ex
+            left = cx < 0 or cx >= rx
+        elif axis == 1:
+            cy += sy
+            ny += ey
+            left = cy < 0 or cy >= ry
+        else:
+            cz += sz
+            nz += ez
+            left = cz < 0 or cz >= rz
+        active = not (left or crossing >= t_exit)
+    depth, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
+        t_exit, t_end, sigma_extra, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
+    return depth, found, t_found, sigma_found, depth_q, sigma_q
+
+
+#: share of the uniform distance among the distance techniques of grid next-event vertices: every
+#: point of the segment keeps a positive pdf where the control is 0 but the medium is not
+NEE_UNIFORM_SHARE = 0.1
+
+
+@stage_kernel
+def grid_nee_distance_sample(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, u_choice, u_t):
+    """A distance on [0, t_end] (finite) for a next-event vertex: from the truncated distribution
+    sigma_c exp(-control depth) (grid_control_walk) or, with NEE_UNIFORM_SHARE, uniform. Its
+    density is grid_nee_distance_pdf."""
+    total = grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, np.inf, -1.0)[0]
+    share = NEE_UNIFORM_SHARE if total > 0.0 else 1.0
+    if u_choice < share:
+        return u_t * t_end
+    target = -np.log1p(u_t * np.expm1(-total))
+    return grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, target, -1.0)[2]
+
+
+@stage_kernel
+def grid_nee_distance_pdf(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, t):
+    """Density of grid_nee_distance_sample at t."""
+    total, _, _, _, depth, sigma = grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, np.inf, t)
+    if not total > 0.0:
+        return 1.0 / t_end
+    return NEE_UNIFORM_SHARE / t_end + (1.0 - NEE_UNIFORM_SHARE) * sigma * np.exp(-depth) / -np.expm1(-total)
+
+
 @stage_kernel
 def grid_box_interval(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
     """(t0, t1) of the part of [t_min, t_max] inside the medium's box; t0 == t1 if none."""
@@ -277,14 +367,19 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
     mode 0: delta tracking with null collisions (free flight; Cycles' null-scattering weights,
         scatter-vs-null chosen with the throughput (br, bg, bb) x albedo channel pdf:
         shade_volume.h volume_sample_channel_pdf / volume_scatter_probability).
-    mode 1: residual ratio tracking (Novak et al. 2014), the cell minorant as control.
+    mode 1: residual ratio tracking (Novak et al. 2014) with the cell's control extinction c:
+        T = exp(-integral of c) x prod(1 - (sigma_t - c) / rate) over a Poisson process of the
+        cell's rate. Unbiased for any control and any rate > 0 (E[prod g(x_i)] = exp(integral of
+        (g - 1) rate)); where |sigma_t - c| <= rate every factor lies in [0, 2]. The control is the
+        middle of the cell's extinction range and the rate its half width: half the lookups of a
+        minorant control and a smaller variance exponent (integral of (sigma_t - c)^2 / rate).
     mode 2: plain ratio tracking against the majorant, collecting emission as mode 0 does.
     Returns (t, scattered, weight rgb, emission rgb); residual ratio tracking only fills the weight."""
     wr = wg = wb = 1.0
     er = eg = eb = 0.0
     t_event = t_max
     scattered = False
-    # Control optical depth (residual ratio tracking): integral of the piecewise-constant minorant.
+    # Control optical depth (residual ratio tracking): integral of the piecewise-constant control.
     cr = cg = cb = 0.0
     active, t, t_exit, cx, cy, cz, nx, ny, nz, ex, ey, ez, sx, sy, sz = _dda_start(
         G, ox, oy, oz, dx, dy, dz, t_min, t_max)
@@ -309,12 +404,13 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
         collided = t_candidate < cell_end
         if mode == 1:
             reached = t_candidate if collided else cell_end
-            c = G.minorant
+            c = G.control
             cr += c[cx, cy, cz, 0] * (reached - t)
             cg += c[cx, cy, cz, 1] * (reached - t)
             cb += c[cx, cy, cz, 2] * (reached - t)
         if collided:
             steps += 1
+            G.flags[FLAG_LOOKUPS + mode] += 1
             t = t_candidate
             x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
             ssr, ssg, ssb, str_, stg, stb, emr, emg, emb = grid_coefficients(G, x, y, z)
@@ -360,18 +456,17 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                     return t_event, scattered, wr, wg, wb, er, eg, eb
             else:
                 if mode == 1:
-                    c = G.minorant
+                    c = G.control
                     mr, mg, mb = c[cx, cy, cz, 0], c[cx, cy, cz, 1], c[cx, cy, cz, 2]
+                    qr, qg, qb = str_ - mr, stg - mg, stb - mb
+                    peak = max(abs(qr), max(abs(qg), abs(qb)))
+                    if peak > rate * (1.0 + _REL_TOL) + _ABS_TOL:
+                        _record(G, FLAG_RESIDUAL, peak, rate, x, y, z)
                 else:
-                    mr = mg = mb = 0.0
-                qr, qg, qb = str_ - mr, stg - mg, stb - mb
-                peak = max(qr, max(qg, qb))
-                if peak > rate * (1.0 + _REL_TOL) + _ABS_TOL:
-                    _record(G, FLAG_MAJORANT, peak, rate, x, y, z)
-                if mode == 1:
-                    low = min(str_ - mr * (1.0 - _REL_TOL), min(stg - mg * (1.0 - _REL_TOL), stb - mb * (1.0 - _REL_TOL)))
-                    if low < -_ABS_TOL:
-                        _record(G, FLAG_MINORANT, min(str_, min(stg, stb)), max(mr, max(mg, mb)), x, y, z)
+                    qr, qg, qb = str_, stg, stb
+                    peak = max(qr, max(qg, qb))
+                    if peak > rate * (1.0 + _REL_TOL) + _ABS_TOL:
+                        _record(G, FLAG_MAJORANT, peak, rate, x, y, z)
                 inv = 1.0 / rate
                 if mode == 2:  # E[sum of w E / rate over tentative collisions] = integral of T E
                     er += wr * emr * inv
@@ -436,7 +531,7 @@ def grid_free_flight(G, ox, oy, oz, dx, dy, dz, t_max, key, stream, br, bg, bb):
 @stage_kernel
 def grid_transmittance(G, ox, oy, oz, dx, dy, dz, t_max, key, stream):
     """Unbiased transmittance estimate (rgb) over [0, t_max] along a unit ray: residual ratio
-    tracking with the cell minorant as control (exact where the density is constant)."""
+    tracking with the cell's control extinction (exact where the density is constant)."""
     r = _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, _TRANSMITTANCE, 1.0, 1.0, 1.0)
     return r[2], r[3], r[4]
 
@@ -515,3 +610,19 @@ def dda_cells1(G, ox, oy, oz, dx, dy, dz, t_min, t_max, cells, spans):
             left = cz < 0 or cz >= G.cell_shape[2]
         active = not (left or crossing >= t_exit)
     return count
+
+
+@stage_kernel
+def nee_distance_many(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, u_choice, u_t, t_out, pdf_out):
+    """grid_nee_distance_sample for each (u_choice, u_t) and grid_nee_distance_pdf at each result."""
+    for n in range(len(u_t)):
+        t = grid_nee_distance_sample(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, u_choice[n], u_t[n])
+        t_out[n] = t
+        pdf_out[n] = grid_nee_distance_pdf(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, t)
+
+
+@stage_kernel
+def nee_distance_pdf_many(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, ts, out):
+    """grid_nee_distance_pdf at each of ts."""
+    for n in range(len(ts)):
+        out[n] = grid_nee_distance_pdf(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, ts[n])

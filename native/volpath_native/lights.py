@@ -116,7 +116,13 @@ class LightSet:
         if n > self.n_lamps + n_tri:
             self.kind[-1] = WORLD
             self.strength[-1] = self.world_radiance
-            power[-1] = self.world_radiance.mean() * 4 * np.pi ** 2 * self.scene_radius ** 2
+            # Weighed against suns as Cycles' light tree weighs distant lights: the background's
+            # energy pi x average radiance (irradiance of an upward surface) against the sun's
+            # irradiance (scene/light_tree.cpp, LightTreeEmitter: LIGHT_BACKGROUND strength x pi,
+            # LIGHT_DISTANT strength), both over the scene's cross-section pi R^2. (The world's
+            # power through the whole bounding sphere, 4 pi^2 R^2 L, picked it 4x as often: on the
+            # noise cloud's floor, lit by the sun, that was most of the error.)
+            power[-1] = self.world_radiance.mean() * np.pi ** 2 * self.scene_radius ** 2
         # corners of every triangle, indexed by triangle id: only mesh lights read them
         self.corners = accel.corners if n_tri else np.zeros((0, 3, 3))
         # One light per row chosen proportionally to its power (Cycles' light tree refines this
@@ -196,7 +202,12 @@ class LightSet:
         if isinstance(light, SpotLight):
             cos_half = np.cos(0.5 * np.clip(light.spot_size, 0.0, np.pi))
             blend = max(light.spot_blend, 1e-6)
-            row.update(normal=light.direction, cos_half=cos_half,
+            # Selection power: what the spot emits into its cone (intensity power / 4 pi times the
+            # cone's solid angle), not the power of the full sphere: a narrow spot was otherwise
+            # picked for most next-event samples that its cone then masks to 0 (Cycles' light tree
+            # bounds a spot's emission by its cone: scene/light_tree.cpp, LightTreeEmitter,
+            # bcone.theta_e = spot_angle / 2; measured: 4x the error of a sun + spot height fog).
+            row.update(normal=light.direction, cos_half=cos_half, power=mean_power * 0.5 * (1.0 - cos_half),
                        spot_smooth=1.0 / max((1.0 - cos_half) * blend, 1e-12))
         return [row]
 

@@ -32,7 +32,8 @@ from .bsdfs.closures import (LABEL_DIFFUSE, LABEL_TRANSMIT, LABEL_TRANSPARENT, s
                              surface_eval, surface_sample, surface_transparency)
 from .camera import camera_ray1, ray_time1
 from .film import filter_offset1
-from .grid_kernels import STREAM_DIMENSIONS, grid_attenuation, grid_free_flight, grid_scattering, grid_transmittance
+from .grid_kernels import (STREAM_DIMENSIONS, grid_attenuation, grid_free_flight, grid_nee_distance_pdf,
+                           grid_nee_distance_sample, grid_scattering, grid_transmittance)
 from .jit import inline_stage_kernel, stage_kernel
 from .light_kernels import (TRIANGLE, escaped_emission_mis, lamp_crossing, light_has_position, light_position,
                             sample_light, select_light, triangle_emission, triangle_sample_barycentrics)
@@ -845,10 +846,21 @@ def _grid_phase_mixture(S, GR, C, p, x, ss_hom, g_hom, cos_theta):
 
 
 @inline_stage_kernel
+def _first_grid(S, C, p):
+    """Index (into GR) of the first grid medium on path p's volume stack."""
+    for v in range(S.vol_grid.shape[0]):
+        if C[p, v] > 0 and S.vol_grid[v] >= 0:
+            return S.vol_grid[v]
+    return 0
+
+
+@inline_stage_kernel
 def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q, n_shadow, margin):
     """Next-event vertex per segment for paths inside grid volumes: the distance is drawn by
-    equiangular sampling (positional lights) or uniformly on the bounded segment, one-sample MIS
-    of the two; sigma_s and transmittance come from the grids (ratio tracking)."""
+    equiangular sampling (positional lights) or, on the bounded segment, from the first grid's
+    control extinction (grid_kernels.grid_nee_distance_sample: follows the medium cell by cell, as
+    Cycles' distance-sampled direct scatter does), one-sample MIS of the two; sigma_s and
+    transmittance come from the grids (residual ratio tracking)."""
     mode = S.volume_sampling
     row = select_light(T, _u(K, p, iteration, D_MED_SELECT))
     finite = np.isfinite(t_end) and t_end > 0.0
@@ -861,14 +873,19 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
         return n_shadow
     setup = equiangular_setup1(o, d, t_end, light_position(T, row))
     u_t = _u(K, p, iteration, D_MED_T)
-    te = t_end if finite else 0.0
-    if _u(K, p, iteration, D_MED_TECH) < prob_eq:
+    u_tech = _u(K, p, iteration, D_MED_TECH)
+    G = GR[_first_grid(S, C, p)]
+    sigma_extra = (st[0] + st[1] + st[2]) / 3.0
+    if u_tech < prob_eq:
         t = equiangular_sample1(setup, u_t)
     else:
-        t = u_t * te
+        t = grid_nee_distance_sample(G, o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra,
+                                     (u_tech - prob_eq) / (1.0 - prob_eq), u_t)
     if not np.isfinite(t):
         t = 0.0
-    pdf_t = prob_eq * equiangular_pdf1(setup, t) + ((1.0 - prob_eq) / te if finite else 0.0)
+    pdf_t = prob_eq * equiangular_pdf1(setup, t)
+    if finite and prob_eq < 1.0:
+        pdf_t += (1.0 - prob_eq) * grid_nee_distance_pdf(G, o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, t)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
     x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t)

@@ -277,7 +277,8 @@ def check_header(header, arrays: dict, where: str) -> None:
         elif isinstance(m, dict) and m.get("type") == "program":
             _check_object(m, _PROGRAM_FIELDS, where, path)
             for name, ndim in _PROGRAM_ARRAYS.items():
-                _require_array(arrays, f"medium{i}.{name}", where, f"{path}.{name}", ndim)
+                _require_array(arrays, f"medium{i}.{name}", where, f"{path}.{name}", ndim, None,
+                               "iu" if name == "program_code" else "f")
             _check_box(m, where, path)
         else:
             _check_object(m, dataclass_fields(sc.Medium), where, path, "Medium")
@@ -409,7 +410,7 @@ def _check_grid_arrays(i: int, medium: dict, arrays: dict, where: str):
             _fail(where, f"{path}.{name}", f"array '{key}' has shape {tuple(shape)}, expected {tuple(density) + (3,)}")
     if ("medium%d.scatter_grid" % i in arrays) != ("medium%d.absorb_grid" % i in arrays):
         _fail(where, path, "scatter_grid and absorb_grid go together")
-    resolution = medium.get("majorant_resolution", 16)
+    resolution = medium.get("majorant_resolution", 32)
     if not 1 <= resolution <= 1024:
         _fail(where, f"{path}.majorant_resolution", f"{resolution} is outside [1, 1024]")
 

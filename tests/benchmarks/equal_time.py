@@ -23,6 +23,7 @@ class EqualTimeRow:
     relmse_cycles: float
     reference_spp: int
     mean_ratio: np.ndarray  # VolPath / reference, per channel
+    lookups_per_sample: np.ndarray = None  # VolPath's medium lookups per camera sample: free flight, shadow, attenuation
 
     @property
     def error_ratio(self) -> float:
@@ -42,7 +43,9 @@ class EqualTimeRow:
             f"{self.relmse_cycles:.4g}; ratio {self.error_ratio:.3g}; VolPath needs {self.time_ratio:.3g}x Cycles' "
             "time for the same error",
             "  image mean ratio VolPath/reference R/G/B: " + " ".join(f"{r:.4f}" for r in self.mean_ratio),
-        ]
+        ] + ([] if self.lookups_per_sample is None else [
+            "  VolPath heterogeneous-medium lookups per sample: free flight {:.3g}, shadow / next-event "
+            "transmittance {:.3g}, attenuation {:.3g}".format(*self.lookups_per_sample)])
 
 
 def equal_time_row(name: str, scene, native_scene, seconds: float, reference_spp: int, scratch,
@@ -56,7 +59,12 @@ def equal_time_row(name: str, scene, native_scene, seconds: float, reference_spp
         cycles_per_sample = reference.render_seconds / reference_spp
         cycles_run = cycles_engine.render_once(scene, samples=max(1, int(seconds / cycles_per_sample)), seed=1,
                                                scratch=scratch)
+    grids = [m for m in native_scene.media if hasattr(m, "lookups")]
+    for medium in grids:
+        medium.lookups[:] = 0
     volpath_run = volpath_engine.render_runs(native_scene, runs=1, samples=1, base_seed=1, time_limit=seconds)[0]
+    samples = volpath_run.samples * volpath_run.image.shape[0] * volpath_run.image.shape[1]
+    lookups = sum(m.lookups for m in grids) / samples if grids else None
     raw_v = metrics.relmse(volpath_run.image, reference.image)
     raw_c = metrics.relmse(cycles_run.image, reference.image)
     reference_share = raw_c * cycles_run.samples / (cycles_run.samples + reference_spp)
@@ -64,4 +72,4 @@ def equal_time_row(name: str, scene, native_scene, seconds: float, reference_spp
     means_r = metrics.rgb(reference.image).mean(axis=(0, 1))
     return EqualTimeRow(name, volpath_run.samples, volpath_run.render_seconds, cycles_run.samples,
                         max(cycles_run.render_seconds, 1e-9), raw_v - reference_share, raw_c - reference_share,
-                        reference_spp, means_v / np.maximum(means_r, 1e-30))
+                        reference_spp, means_v / np.maximum(means_r, 1e-30), lookups)

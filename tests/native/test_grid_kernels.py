@@ -73,7 +73,10 @@ def test_grid_transmittance_averages_to_exp_of_minus_optical_depth():
     np.testing.assert_array_equal(out, again)  # deterministic per (key, stream)
     _transmittances(medium.tables, origins, directions, np.repeat(length, count), keys, 8 << 20, again)
     assert not np.array_equal(out, again)  # another stream, other numbers
-    np.testing.assert_array_equal(medium.tables.flags, 0)
+    from volpath_native.grid_kernels import FLAG_LOOKUPS, FLAG_MAJORANT, FLAG_RESIDUAL
+    np.testing.assert_array_equal(medium.tables.flags[:FLAG_LOOKUPS], 0)  # no violation, no budget stop
+    assert medium.tables.flags[FLAG_LOOKUPS + 1] > 0  # the lookups of residual ratio tracking are counted
+    assert FLAG_MAJORANT < FLAG_LOOKUPS and FLAG_RESIDUAL < FLAG_LOOKUPS
 
 
 def test_grid_free_flight_scatter_distances_follow_the_exponential_pdf():

@@ -175,7 +175,9 @@ def test_constant_grid_transmittance_is_beer_lambert(residual):
 @pytest.mark.parametrize("residual", [True, False], ids=["residual", "ratio"])
 def test_ramp_transmittance_matches_closed_form_optical_depth(residual):
     sigma_s, sigma_a = np.array([2.0, 4.0, 6.0]), np.array([1.0, 0.0, 2.0])
-    medium, transform, (a, b, n) = ramp_medium(sigma_s, sigma_a)
+    # 16 majorant cells: plain ratio tracking's relative variance is exp(integral sigma^2 / majorant) - 1,
+    # ~e^10 on the deepest channel with the tighter default cells, beyond what a z-test of 20000 resolves
+    medium, transform, (a, b, n) = ramp_medium(sigma_s, sigma_a, majorant_resolution=16)
     rng = np.random.default_rng(7)
     origins, dirs, length, start, end = rays_through_interior(transform, n, 8, rng)
     tau = ramp_optical_depth_scalar(start, end, length, a, b)[:, None] * (sigma_s + sigma_a)
@@ -282,27 +284,27 @@ def test_too_low_majorant_is_detected_in_debug_mode():
     medium.transmittance(origins, dirs, length, rng)  # correct bounds pass
     medium.transmittance(origins, dirs, length, rng, residual=False)
     medium.sample_free_flight(origins, dirs, length, rng)
-    good_majorant, good_rate, good_minorant = (medium.majorant_grid.copy(), medium.residual_rate.copy(),
-                                               medium.minorant_rgb.copy())
+    good_majorant, good_rate = medium.majorant_grid.copy(), medium.residual_rate.copy()
     medium.majorant_grid *= 0.5
     with pytest.raises(MajorantTooLowError):
         medium.transmittance(origins, dirs, length, rng, residual=False)
     with pytest.raises(MajorantTooLowError):
         medium.sample_free_flight(origins, dirs, length, rng)
-    medium.residual_rate *= 0.5
-    with pytest.raises(MajorantTooLowError, match="majorant"):
+    medium.majorant_grid[:] = good_majorant
+    from volpath_native.grid_medium import RESIDUAL_MARGIN
+    medium.residual_rate *= 0.5 / RESIDUAL_MARGIN  # below the half width of the cells' ranges
+    with pytest.raises(MajorantTooLowError, match="residual rate"):
         medium.transmittance(origins, dirs, length, rng)
     medium.residual_rate[:] = good_rate
-    medium.minorant_rgb *= 1.5  # a control above sigma_t somewhere
-    medium.residual_rate += 10.0  # ...with a rate still large enough: only the minorant check fires
-    with pytest.raises(MajorantTooLowError, match="minorant"):
+    medium.control_rgb += good_rate[..., None]  # a control off the middle: |sigma_t - control| up to rate + half width
+    with pytest.raises(MajorantTooLowError, match="residual rate"):
         medium.transmittance(origins, dirs, length, rng)
     medium.debug = False
     medium.transmittance(origins, dirs, length, rng, residual=False)  # no check without debug (and biased)
 
 
 def test_residual_ratio_tracking_beats_plain_ratio_tracking_on_a_smooth_field():
-    """Same expectation, lower variance and fewer density lookups with the minorant as control."""
+    """Same expectation, lower variance and fewer density lookups with the cell's control extinction."""
     medium, transform, (a, b, n) = ramp_medium([2.0, 3.0, 4.0], 1.0)
     rng = np.random.default_rng(14)
     origins, dirs, length, _, _ = rays_through_interior(transform, n, 1, rng)
@@ -313,6 +315,42 @@ def test_residual_ratio_tracking_beats_plain_ratio_tracking_on_a_smooth_field():
     assert np.all(residual.var(axis=0) < 0.5 * plain.var(axis=0))
     assert np.all(np.abs(residual.mean(0) - plain.mean(0)) <
                   Z_LIMIT * np.sqrt((residual.var(0) + plain.var(0)) / count))
+
+
+def test_next_event_distances_follow_their_density():
+    """The distance distribution of grid next-event vertices (grid_kernels.grid_nee_distance_sample,
+    path_kernels._grid_nee): its density integrates to 1 over a segment that starts and ends
+    outside the grid and crosses an empty half, and 40000 samples pass a chi-square test against
+    it; the density of a planted wrong control (the extinction around the grid doubled) fails."""
+    from volpath_native.grid_kernels import nee_distance_many, nee_distance_pdf_many
+    n = 16
+    i = np.arange(n, dtype=np.float32)
+    density = np.broadcast_to((0.5 + 0.3 * i)[:, None, None], (n, n, n)).copy()
+    density[:, n // 2:, :] = 0.0  # empty half: control 0 there, only the uniform share reaches it
+    medium = GridMedium("nee", density, np.diag([0.1, 0.1, 0.1, 1.0]), 0.8, 0.2)
+    G = medium.tables
+    o, d = np.array([-0.3, 0.2, 0.6]), np.array([1.0, 0.9, 0.2])
+    d /= np.linalg.norm(d)
+    t_end, extra, count = 3.0, 0.3, 40000
+    rng = np.random.default_rng(21)
+
+    def density_of(ts, sigma_extra):
+        out = np.empty(len(ts))
+        nee_distance_pdf_many(G, *o, *d, t_end, sigma_extra, ts, out)
+        return out
+
+    t, pdf = np.empty(count), np.empty(count)
+    nee_distance_many(G, *o, *d, t_end, extra, rng.random(count), rng.random(count), t, pdf)
+    assert np.all((t >= 0) & (t <= t_end)) and np.all(pdf > 0)
+    edges = np.linspace(0.0, t_end, 41)
+    fine = (np.arange(400 * 40) + 0.5) / (400 * 40) * t_end
+    for sigma_extra, should_pass in ((extra, True), (2 * extra, False)):
+        bins = density_of(fine, sigma_extra).reshape(40, 400).mean(axis=1) * (t_end / 40)
+        if should_pass:
+            assert abs(bins.sum() - 1.0) < 1e-3
+        observed = np.histogram(t, edges)[0]
+        chi2 = np.sum((observed - count * bins) ** 2 / (count * bins))
+        assert (chi2 < 80.0) == should_pass, (sigma_extra, chi2)  # 39 dof: P(chi2 > 80) ~ 1e-4
 
 
 def test_results_are_reproducible_for_a_seed():

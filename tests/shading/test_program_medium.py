@@ -51,12 +51,21 @@ def object_matrix():
 
 
 def quadrature_depth(medium: ProgramMedium, origins, dirs, t_max, steps=2000):
-    """Midpoint-rule optical depth of the program itself (max channel), inside the medium's box."""
+    """Midpoint-rule optical depth of the program itself (max channel), inside the medium's box:
+    over the ray's exact interval in the box (a rule across the box's faces would be off by
+    O(step x sigma_t), more than the residual tracker's standard error)."""
     p = medium.program
     regs = np.zeros(p.n_registers)
-    t = (np.arange(steps) + 0.5) / steps * t_max
     depth = np.zeros(len(origins))
+    m = medium.world_to_index[:3]
     for n, (o, d) in enumerate(zip(origins, dirs)):
+        po, pd = m[:, :3] @ o + m[:, 3], m[:, :3] @ d  # the index-space ray: box [0, shape - 1]
+        with np.errstate(divide="ignore"):
+            a, b = (0.0 - po) / pd, (medium.shape - 1 - po) / pd
+        t0, t1 = max(np.minimum(a, b).max(), 0.0), min(np.maximum(a, b).min(), t_max)
+        if not t1 > t0:
+            continue
+        t = t0 + (np.arange(steps) + 0.5) / steps * (t1 - t0)
         points = np.ascontiguousarray(o + d * t[:, None])
         out = np.zeros((steps, 22))
         run_program_many(p.code, p.init, p.tables, regs, medium.frame, medium.attributes,
@@ -66,7 +75,7 @@ def quadrature_depth(medium: ProgramMedium, origins, dirs, t_max, steps=2000):
                         & (points @ medium.world_to_index[:3, :3].T + medium.world_to_index[:3, 3]
                            <= medium.shape - 1), axis=1)
         sigma_t = out[:, 0] + out[:, 6]  # sigma_a + lobe 0 sigma_s (red)
-        depth[n] = np.sum(sigma_t * inside) * t_max / steps
+        depth[n] = np.sum(sigma_t * inside) * (t1 - t0) / steps
     return depth
 
 
@@ -141,23 +150,32 @@ def test_free_flight_is_unbiased(medium):
 
 
 def test_a_too_low_majorant_stays_unbiased_and_is_counted():
-    """Halve the sampled majorant: sigma_t exceeds it in much of the box; the signed weights of
-    weighted delta / ratio tracking keep both estimators unbiased, and the kernels count the events."""
+    """Halve the sampled majorant and the residual rate: sigma_t exceeds the one and leaves control
+    +- rate in much of the box; the signed weights of weighted delta / (residual) ratio tracking keep
+    the estimators unbiased, and the kernels count the events."""
+    from volpath_native.grid_kernels import FLAG_MAJORANT, FLAG_RESIDUAL, track_many
     low = ProgramMedium("low", wavy_program(), object_matrix(), ([-1, -1, -1], [1, 1, 1]))
-    low.majorant_grid *= 0.5  # in place: the kernels read this array
+    low.majorant_grid *= 0.5  # in place: the kernels read these arrays
+    low.residual_rate *= 0.25
     origins, dirs = _rays()
     depth = quadrature_depth(low, origins, dirs, 8.0)
-    z = _transmittance_z(low, origins, dirs, np.exp(-depth), n=40000)
-    assert np.all(np.abs(z) < Z_LIMIT), z
-    tables = low._call_tables()
-    from volpath_native.grid_kernels import track_many
+    for residual in (True, False):
+        rng = np.random.default_rng(3)
+        n = 40000
+        for o, d, tau in zip(origins, dirs, depth):
+            estimates = low.transmittance(np.repeat(o[None], n, 0), np.repeat(d[None], n, 0), 8.0, rng,
+                                          residual=residual)[:, 0]
+            z = (estimates.mean() - np.exp(-tau)) / (estimates.std() / np.sqrt(n) + 1e-12)
+            assert abs(z) < Z_LIMIT, (residual, z)
     n = 2000
     keys = np.arange(n, dtype=np.uint64) * np.uint64(7919)
     t_out, scattered = np.empty(n), np.empty(n, bool)
     weight, emission = np.empty((n, 3)), np.empty((n, 3))
-    track_many(tables, np.repeat(origins[:1], n, 0), np.repeat(dirs[:1], n, 0), np.zeros(n), np.full(n, 8.0), keys, 0,
-               1, np.ones((n, 3)), t_out, scattered, weight, emission)
-    assert tables.flags[0] > 0  # FLAG_MAJORANT: the violations were seen
+    for mode, flag in ((0, FLAG_MAJORANT), (1, FLAG_RESIDUAL)):
+        tables = low._call_tables()
+        track_many(tables, np.repeat(origins[:1], n, 0), np.repeat(dirs[:1], n, 0), np.zeros(n), np.full(n, 8.0),
+                   keys, 0, mode, np.ones((n, 3)), t_out, scattered, weight, emission)
+        assert tables.flags[flag] > 0  # the violations were seen
 
 
 def test_render_of_a_constant_program_equals_the_homogeneous_medium():
