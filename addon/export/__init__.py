@@ -15,7 +15,7 @@ import volpath_native as vp
 
 from .. import compat
 from . import camera as camera_export
-from . import fluid, geometry, grid_media, lights, motion, procedural_media, shading, validate
+from . import fluid, geometry, grid_media, instancing, lights, motion, procedural_media, shading, validate
 
 __all__ = ["export_scene", "export_settings", "ExportCancelled"]
 
@@ -62,9 +62,10 @@ def _export(depsgraph, camera_object, reporter, cancel, frame_set):
         return camera_object.evaluated_get(depsgraph) if camera_object is not None else None
 
     def objects_now():
-        return {obj.name: np.array(obj.matrix_world, dtype=np.float64) for obj in depsgraph.objects}
+        return _instance_transforms(depsgraph)
     # Motion blur first: it moves the frame, and leaves it at the shutter's centre for the rest.
-    shutter = motion.camera_motion(scene, camera_now, frame_set, objects_now, reporter)
+    shutter = motion.camera_motion(scene, camera_now, frame_set, objects_now, reporter,
+                                   lambda: _deforming_positions(depsgraph))
     evaluated_camera = camera_now()
     if evaluated_camera is not None and evaluated_camera.type == "CAMERA":
         validate.check_camera(evaluated_camera)
@@ -77,7 +78,8 @@ def _export(depsgraph, camera_object, reporter, cancel, frame_set):
     camera.rolling_shutter_duration = shutter.rolling_shutter_duration
     film = camera_export.export_film(scene, reporter)
 
-    meshes, scene_lights, grid_sources = _export_instances(depsgraph, table, reporter, cancel)
+    meshes, scene_lights, grid_sources = _export_instances(depsgraph, table, reporter, cancel, shutter.object_motion,
+                                                           shutter.vertex_motion)
     if grid_sources:
         meshes += _export_grid_media(depsgraph, grid_sources, table, reporter)
     validate.close_volume_boundaries(meshes, table.materials, reporter)
@@ -92,13 +94,56 @@ def _export(depsgraph, camera_object, reporter, cancel, frame_set):
                     images=table.images.images)
 
 
-def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=None):
-    meshes: list[vp.Mesh] = []
+def _instance_transforms(depsgraph) -> dict:
+    """{instance key: (matrix_world, motion steps, kind)} of the instances motion blur follows."""
+    out = {}
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        if not instance.show_self or obj.type == "CAMERA":
+            continue
+        if obj.type == "LIGHT":
+            kind = "light"
+        elif obj.type == "VOLUME" or fluid.is_fluid_domain(obj):
+            kind = "medium"
+        elif obj.type in geometry.GEOMETRY_TYPES:
+            kind = "geometry"
+        else:
+            continue
+        out[motion.instance_key(instance)] = (np.array(instance.matrix_world, dtype=np.float64),
+                                              motion.instance_motion_steps(instance), kind)
+    return out
+
+
+def _deforming_positions(depsgraph) -> dict:
+    """{object name: (motion steps, (V, 3) positions)} of meshes whose modifiers deform them (Cycles'
+    blender/mesh.cpp sync_mesh_motion reads only those) with deformation blur on (Object > Motion
+    Blur > Deformation, blender/util.h object_use_deform_motion)."""
+    scene = depsgraph.scene
+    out = {}
+    for obj in depsgraph.objects:
+        if obj.type != "MESH" or not getattr(getattr(obj, "cycles", None), "use_deform_motion", True):
+            continue
+        steps = motion.motion_steps(obj)
+        if not steps or not obj.original.is_deform_modified(scene, "RENDER"):
+            continue
+        mesh = obj.to_mesh()
+        try:
+            out[obj.name] = (steps, compat.mesh_positions(mesh).copy()) if mesh is not None else (steps, None)
+        finally:
+            obj.to_mesh_clear()
+    return out
+
+
+def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=None, object_motion=None,
+                      object_deformation=None):
+    object_motion = object_motion or {}
+    object_deformation = object_deformation or {}
     scene_lights = []
     triangulated: dict = {}  # evaluated mesh data -> LocalMesh (None: no triangles)
     grid_sources = set()  # "volume" / "fluid": grid media exported by _export_grid_media
     material_override = depsgraph.view_layer.material_override
-    budget = validate.MemoryBudget()
+    groups = instancing.InstanceGroups(validate.MemoryBudget())
+    static_program_media = set()  # objects whose volume program is not blurred (warned once)
     for instance in depsgraph.object_instances:
         if cancel is not None and cancel():
             raise ExportCancelled()
@@ -146,16 +191,26 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=
                 triangulated[(key, requests)] = local
         if local is None:
             continue
-        budget.add(obj.name, len(local.triangles))  # SceneError before the memory runs out
         if instance.is_instance:
             parent = instance.parent.name if instance.parent is not None else "instance"
-            name = f"{parent}/{obj.name}#{len(meshes)}"
+            name = f"{parent}/{obj.name}#{groups.instance_count}"
         else:
             name = obj.name
-        slot_materials = table.procedural.bind(slot_materials, obj, name, matrix, local.vertices)
-        mesh = validate.finite_mesh(geometry.to_world(name, local, matrix, slot_materials), obj.name, reporter)
-        if mesh is not None:
-            meshes.append(mesh)
+        bound = table.procedural.bind(slot_materials, obj, name, matrix, local.vertices)
+        path = object_motion.get(motion.instance_key(instance))
+        if path is not None and bound is not slot_materials:
+            static_program_media.add(obj.name)  # its medium is placed by the centre transform
+            path = None
+        deformation = object_deformation.get(obj.name) if not instance.is_instance else None
+        if deformation is not None and deformation.shape[1] != len(local.vertices):
+            deformation = None  # read from another evaluation (e.g. a different modifier stack): not blurred
+        groups.add(None if key is None else (key, requests), name, obj.name, local, bound, matrix, path,
+                   deformation)
+    if static_program_media:
+        reporter.warn(f"motion blur: {', '.join(repr(n) for n in sorted(static_program_media))} move during the "
+                      "shutter but their volume shader varies in space; VolPath renders them at the shutter centre "
+                      "(Cycles blurs them)")
+    return groups.meshes(reporter), scene_lights, grid_sources
     return meshes, scene_lights, grid_sources
 
 

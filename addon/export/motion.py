@@ -1,11 +1,11 @@
 """Motion blur settings as Cycles syncs them (intern/cycles/blender/sync.cpp
-BlenderSync::sync_motion, blender/camera.cpp sync_camera / sync_camera_motion, blender/util.h
-object_motion_steps): the camera's transform at its motion steps over the shutter, the shutter
-curve and the rolling shutter.
+BlenderSync::sync_motion, blender/camera.cpp sync_camera / sync_camera_motion, blender/object.cpp
+sync_object in motion passes, blender/util.h object_motion_steps): the camera's and the objects'
+transforms at their motion steps over the shutter, the shutter curve and the rolling shutter.
 
-Only the camera moves in VolPath's renders: objects, lights and media that move during the shutter
-are rendered where they are at the frame's shutter centre, and named in a warning (Cycles blurs
-their transforms and deformations; velocity-based fluid motion blur likewise stays out).
+Lights stay at the shutter centre as in Cycles; volume objects (and meshes whose volume is a
+shader program) that move are rendered at the shutter centre with a warning (Cycles blurs them);
+velocity-based fluid motion blur likewise stays out.
 """
 from __future__ import annotations
 
@@ -24,6 +24,8 @@ class ShutterSettings:
     shutter_curve: list = field(default_factory=list)
     rolling_shutter: bool = False
     rolling_shutter_duration: float = 0.1
+    object_motion: dict = field(default_factory=dict)  # instance key -> [matrix_world at its motion steps]
+    vertex_motion: dict = field(default_factory=dict)  # object name -> (S, V, 3) positions at its steps
 
 
 def motion_steps(obj) -> int:
@@ -70,12 +72,44 @@ def _frame_set(frame_set, time: float):
     frame_set(int(frame), time - frame)
 
 
-def camera_motion(scene, camera_object_at, frame_set, objects_at, reporter) -> ShutterSettings:
-    """The render's motion blur: the camera's transforms at its motion steps (Cycles' relative
-    times -1 .. 1 over the shutter), read by moving the frame with frame_set(frame, subframe).
-    camera_object_at() and objects_at() read the evaluated camera and {name: matrix_world} of the
-    scene's objects at the current time; objects that move are named in a warning. Leaves the
-    frame at the centre of the shutter."""
+def instance_key(instance) -> tuple:
+    """Identifies a depsgraph object instance across frames (Cycles' ObjectKey: parent, persistent
+    id, object), so its transform can be followed over the shutter."""
+    parent = instance.parent.name if instance.is_instance and instance.parent is not None else ""
+    persistent = tuple(instance.persistent_id) if instance.is_instance else ()
+    return (instance.object.name, parent, persistent)
+
+
+def instance_motion_steps(instance) -> int:
+    """object_motion_steps of an instance, with the instancer's setting as Cycles' blender/util.h
+    object_motion_steps (the parent can switch it off and raise the step count)."""
+    steps = motion_steps(instance.object)
+    if steps and instance.is_instance and instance.parent is not None:
+        parent_steps = motion_steps(instance.parent)
+        steps = max(steps, parent_steps) if parent_steps else 0
+    return steps
+
+
+def relative_times(steps: int) -> list[float]:
+    """Cycles' motion times of an object with `steps` transforms: -1 .. 1 over the shutter."""
+    return [2.0 * k / (steps - 1) - 1.0 for k in range(steps)]
+
+
+def camera_motion(scene, camera_object_at, frame_set, objects_at, reporter, deformations_at=None) -> ShutterSettings:
+    """The render's motion blur, read by moving the frame with frame_set(frame, subframe) to every
+    time any object needs (Cycles' BlenderSync::sync_motion visits the union of its objects' motion
+    times, each object keeping the steps of its own count):
+    - the camera's transforms at its motion steps;
+    - `object_motion`: {instance key: [4x4 matrix_world at each of its steps]} for geometry instances
+      whose transform changes during the shutter (Cycles' Object::motion, cleared when all equal).
+    - `vertex_motion`: {object name: (S, V, 3) vertex positions} of deforming meshes (Cycles'
+      blender/mesh.cpp sync_mesh_motion: only objects with deforming modifiers are read, and a mesh
+      whose vertex count changes during the shutter is not blurred -- warned here).
+    camera_object_at() gives the evaluated camera at the current time; objects_at() gives
+    {instance key: (matrix_world, motion steps, kind)} with kind "geometry", "light" or "medium";
+    deformations_at() gives {object name: (motion steps, (V, 3) positions)} of deforming meshes.
+    Lights that move are named in a warning: Cycles does not blur lights either (its sync skips them
+    in motion passes), they stay at the shutter centre. Leaves the frame at the shutter centre."""
     render = scene.render
     settings = ShutterSettings()
     if not render.use_motion_blur:
@@ -89,31 +123,70 @@ def camera_motion(scene, camera_object_at, frame_set, objects_at, reporter) -> S
     settings.rolling_shutter_duration = float(getattr(cycles, "rolling_shutter_duration", 0.1))
     if shutter <= 0.0:
         reporter.warn(f"camera '{name}': motion blur with a shutter of 0 frames blurs nothing (as Cycles)")
-    steps = motion_steps(camera) if camera is not None else 0
-    relative = [2.0 * k / (steps - 1) - 1.0 for k in range(steps)] if steps else [-1.0, 0.0, 1.0]
-    transforms, lenses, moved = [], [], set()
-    before = None
-    for time in relative:
+    camera_steps = motion_steps(camera) if camera is not None else 0
+    at_centre = objects_at()
+    step_counts = {camera_steps} | {steps for _, steps, _ in at_centre.values()}
+    times = sorted({t for steps in step_counts if steps for t in relative_times(steps)} | {0.0})
+    transforms, lenses = [], []
+    samples = {}  # relative time -> {key: matrix}
+    shapes = {}  # relative time -> {object name: (steps, positions)}
+    for time in times:
         _frame_set(frame_set, centre + time * shutter * 0.5)
-        camera = camera_object_at()
-        if camera is not None:
-            transforms.append(np.array(camera.matrix_world, dtype=np.float64))
-            if camera.type == "CAMERA":
-                lenses.append((float(camera.data.lens), float(camera.data.ortho_scale)))
-        current = objects_at()
-        if before is not None:
-            moved |= {key for key, matrix in current.items()
-                      if key in before and not np.allclose(matrix, before[key], rtol=0, atol=1e-9)}
-        before = current
+        if time in (relative_times(camera_steps) if camera_steps else ()):
+            camera = camera_object_at()
+            if camera is not None:
+                transforms.append(np.array(camera.matrix_world, dtype=np.float64))
+                if camera.type == "CAMERA":
+                    lenses.append((float(camera.data.lens), float(camera.data.ortho_scale)))
+        samples[time] = {key: matrix for key, (matrix, _, _) in objects_at().items()}
+        if deformations_at is not None:
+            shapes[time] = deformations_at()
     _frame_set(frame_set, centre)
-    if steps and camera is not None:
+    if camera_steps and camera is not None:
         settings.camera_transforms = transforms
         if len(set(lenses)) > 1:
             reporter.warn(f"camera '{name}': its focal length or scale changes during the shutter; VolPath blurs "
                           "only its motion (Cycles also its zoom)")
-    moved.discard(name)
-    if moved:
-        names = ", ".join(f"'{n}'" for n in sorted(moved)[:8]) + (", ..." if len(moved) > 8 else "")
-        reporter.warn(f"motion blur: {names} move during the shutter; VolPath blurs only the camera's motion and "
-                      "renders objects, lights and media where they are at the shutter centre")
+    moved_lights, moved_media = set(), set()
+    for key, (matrix, steps, kind) in at_centre.items():
+        own_times = relative_times(steps) if steps else times
+        path = [samples[t].get(key) for t in own_times]
+        if any(m is None for m in path) or all(np.allclose(m, path[0], rtol=0, atol=1e-9) for m in path):
+            continue  # appears or vanishes during the shutter, or does not move
+        if kind == "geometry" and steps:
+            if not all(np.all(np.isfinite(m)) for m in path):
+                reporter.warn(f"object '{key[0]}': its transform during the shutter is not finite; rendered without "
+                              "motion blur")
+                continue
+            settings.object_motion[key] = path
+        elif kind == "light":
+            moved_lights.add(key[0])
+        elif kind == "medium":
+            moved_media.add(key[0])
+    changed_topology = set()
+    for object_name, (steps, positions) in shapes.get(0.0, {}).items():
+        path = [shapes[t].get(object_name, (0, None))[1] for t in relative_times(steps)]
+        if any(p is None or p.shape != positions.shape for p in path):
+            changed_topology.add(object_name)
+        elif not all(np.array_equal(p, positions) for p in path):
+            if not all(np.all(np.isfinite(p)) for p in path):
+                reporter.warn(f"object '{object_name}': vertex positions during the shutter are not finite; its "
+                              "deformation is not blurred")
+                continue
+            settings.vertex_motion[object_name] = np.stack(path)
+    if changed_topology:
+        reporter.warn(f"motion blur: {_names(changed_topology)} change their vertex count during the shutter; "
+                      "their deformation is not blurred (as Cycles)")
+    moved_lights.discard(name)
+    if moved_lights:
+        reporter.warn(f"motion blur: lights {_names(moved_lights)} move during the shutter; they are rendered where "
+                      "they are at the shutter centre, as Cycles does (it does not blur lights)")
+    if moved_media:
+        reporter.warn(f"motion blur: volume objects {_names(moved_media)} move during the shutter; VolPath renders "
+                      "them where they are at the shutter centre (Cycles blurs them)")
     return settings
+
+
+def _names(names) -> str:
+    names = sorted(names)
+    return ", ".join(f"'{n}'" for n in names[:8]) + (", ..." if len(names) > 8 else "")

@@ -14,6 +14,7 @@ raises volpath_native.SceneError when there is no sensible fallback (a broken ca
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -74,8 +75,10 @@ def finite_mesh(mesh: vp.Mesh, object_name: str, reporter):
     keep = ~bad
     vertices = mesh.vertices.copy()
     vertices[bad_vertex] = 0.0  # no triangle uses them any more
-    return vp.Mesh(mesh.name, vertices, mesh.triangles[keep], mesh.material_ids[keep],
-                   None if mesh.corner_normals is None else mesh.corner_normals[keep])
+    return dataclasses.replace(
+        mesh, vertices=vertices, triangles=mesh.triangles[keep], material_ids=mesh.material_ids[keep],
+        corner_normals=None if mesh.corner_normals is None else mesh.corner_normals[keep],
+        corner_attributes={name: values[keep] for name, values in mesh.corner_attributes.items()})
 
 
 def checked_light(export, obj, reporter):

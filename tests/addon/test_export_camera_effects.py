@@ -140,16 +140,17 @@ def test_camera_motion_steps_over_the_shutter(scene, position, centre):
     assert not any("move during the shutter" in w for w in warnings)
 
 
-def test_moving_objects_are_named(scene):
+def test_moving_object_with_a_varying_volume_stays_at_the_centre_and_is_named(scene):
+    from addon_scenes import node_material
+    from test_export_procedural_volumes import height_fog
+
     scene.render.use_motion_blur = True
-    box = add_mesh(scene, "Mover")
-    scene.frame_set(1)
-    box.keyframe_insert("location", frame=1)
-    box.location = (0.0, 0.0, 3.0)
-    box.keyframe_insert("location", frame=3)
-    scene.frame_set(2)
-    warnings = export(scene)[1]
-    assert any("'Mover'" in w and "move during the shutter" in w for w in warnings)
+    box = add_mesh(scene, "Mover", material=node_material("Fog", volume=height_fog))
+    _animate(box, "location", (0.0, 0.0, 0.0), (0.0, 0.0, 3.0))
+    exported, warnings = export(scene)
+    assert exported.meshes[0].motion is None
+    np.testing.assert_allclose(exported.meshes[0].vertices.mean(axis=0), (0, 0, 1.5), atol=1e-5)
+    assert any("'Mover'" in w and "shutter centre" in w for w in warnings), warnings
 
 
 def test_zero_shutter_warns_and_does_not_move(scene):
@@ -185,3 +186,84 @@ def test_motion_blur_off_has_no_motion(scene):
     scene.render.use_motion_blur = False
     camera = _camera(scene)
     assert camera.motion_transforms == [] and camera.shutter_curve == []
+
+
+def _animate(obj, attribute, start, end, frames=(1, 3)):
+    scene = bpy.context.scene
+    scene.frame_set(frames[0])
+    setattr(obj, attribute, start)
+    obj.keyframe_insert(attribute, frame=frames[0])
+    setattr(obj, attribute, end)
+    obj.keyframe_insert(attribute, frame=frames[1])
+    _make_linear(obj.id_data)  # a modifier's keys live on its object
+    scene.frame_set(2)
+
+
+def test_moving_object_gets_its_transforms_over_the_shutter(scene):
+    """Cycles' object motion (blender/object.cpp sync_object in motion passes): matrix_world at the
+    object's 3 motion steps over the shutter, the frame's transform as its instance."""
+    scene.render.use_motion_blur = True
+    scene.render.motion_blur_shutter = 0.5
+    _animate(add_mesh(scene, "Mover"), "location", (0.0, 0.0, 0.0), (0.0, 0.0, 4.0))  # 2 units per frame
+    exported, warnings = export(scene)
+    (mesh,) = exported.meshes
+    assert mesh.instance_count == 1 and mesh.motion_steps == 3
+    np.testing.assert_allclose(mesh.motion[0, :, 2, 3], [1.5, 2.0, 2.5], atol=1e-5)
+    np.testing.assert_allclose(mesh.instances[0][2, 3], 2.0, atol=1e-5)
+    np.testing.assert_allclose(mesh.vertices.mean(axis=0), 0.0, atol=1e-6)  # object space
+    assert not any("move during the shutter" in w for w in warnings), warnings
+
+
+def test_motion_steps_and_switches_per_object(scene):
+    scene.render.use_motion_blur = True
+    fast = add_mesh(scene, "Fast")
+    fast.cycles.motion_steps = 2  # (2 << 1) + 1 = 5 transforms
+    _animate(fast, "location", (0.0, 0.0, 0.0), (4.0, 0.0, 0.0))
+    still = add_mesh(scene, "Still", location=(0, 5, 0))
+    still.cycles.use_motion_blur = False
+    _animate(still, "location", (0.0, 5.0, 0.0), (4.0, 5.0, 0.0))
+    meshes = {m.name: m for m in export(scene)[0].meshes}
+    assert meshes["Fast"].motion_steps == 5
+    np.testing.assert_allclose(meshes["Fast"].motion[0, :, 0, 3], [1.5, 1.75, 2.0, 2.25, 2.5], atol=1e-5)
+    assert meshes["Still"].motion is None and meshes["Still"].instances is None  # at the shutter centre
+    scene.render.use_motion_blur = False
+    assert all(m.motion is None for m in export(scene)[0].meshes)
+
+
+def test_deforming_mesh_gets_its_vertex_positions_over_the_shutter(scene):
+    """A mesh deformed by an animated modifier (Cycles blender/mesh.cpp sync_mesh_motion)."""
+    scene.render.use_motion_blur = True
+    obj = add_mesh(scene, "Wobble")
+    warp = obj.modifiers.new("Scale", "DISPLACE")
+    warp.direction = "Z"
+    # without a texture every vertex moves (1 - midlevel 0.5) x strength along z: strength grows 1 a
+    # frame, the default shutter is 0.5 frames -> +-0.25 frames -> +-0.125
+    _animate(warp, "strength", 0.0, 2.0)
+    (mesh,) = export(scene)[0].meshes
+    assert mesh.vertex_motion_steps == 3 and mesh.motion is None
+    shift = mesh.vertex_motion[:, :, 2] - mesh.vertices[None, :, 2]
+    np.testing.assert_allclose(shift, [[-0.125] * 8, [0.0] * 8, [0.125] * 8], atol=1e-5)
+
+
+def test_moving_light_stays_at_the_shutter_centre_as_in_cycles(scene):
+    from addon_scenes import add_light
+
+    scene.render.use_motion_blur = True
+    _animate(add_light(scene, "Lamp", "POINT", 100.0), "location", (0.0, 0.0, 0.0), (4.0, 0.0, 0.0))
+    exported, warnings = export(scene)
+    assert exported.lights[0].position[0] == pytest.approx(2.0)
+    assert any("'Lamp'" in w and "as Cycles does" in w for w in warnings), warnings
+
+
+def test_a_moving_and_a_still_copy_share_one_mesh(scene):
+    scene.render.use_motion_blur = True
+    mover = add_mesh(scene, "Mover")
+    still = mover.copy()  # a linked duplicate: the same mesh
+    still.location = (0.0, 5.0, 0.0)
+    scene.collection.objects.link(still)
+    _animate(mover, "location", (0.0, 0.0, 0.0), (4.0, 0.0, 0.0))
+    (mesh,) = export(scene)[0].meshes
+    assert mesh.instance_count == 2 and mesh.motion.shape == (2, 3, 3, 4)
+    moving = int(np.argmax(np.ptp(mesh.motion[:, :, 0, 3], axis=1)))
+    np.testing.assert_allclose(mesh.motion[moving, :, 0, 3], [1.5, 2.0, 2.5], atol=1e-5)
+    np.testing.assert_allclose(mesh.motion[1 - moving, :, 1, 3], [5.0] * 3, atol=1e-6)  # repeated: it stands still

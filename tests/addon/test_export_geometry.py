@@ -78,8 +78,33 @@ def test_linked_duplicates_and_collection_instances(scene):
     instancer.location = (0, 0, 10)
     scene.collection.objects.link(instancer)
     meshes = export(scene)[0].meshes
-    centres = sorted(tuple(np.round(m.vertices.mean(axis=0), 5)) for m in meshes)
+    # one copy of the shared mesh in object space, placed three times (memory grows with unique geometry)
+    assert len(meshes) == 1 and meshes[0].instance_count == 3 and len(meshes[0].triangles) == 12
+    np.testing.assert_allclose(sorted(tuple(t[:, 3]) for t in meshes[0].instances), [(0, 0, 0), (0, 0, 10), (5, 0, 0)])
+    centres = sorted(tuple(np.round(m.vertices.mean(axis=0), 5)) for m in _in_world(meshes))
     assert centres == [(0, 0, 0), (0, 0, 10), (5, 0, 0)]
+
+
+def _in_world(meshes):
+    return [copy for mesh in meshes for copy in mesh.world_copies()]
+
+
+def test_a_mesh_used_once_is_placed_in_the_world(scene):
+    add_mesh(scene, "Box", location=(1, 2, 3))
+    mesh = export(scene)[0].meshes[0]
+    assert mesh.instances is None and mesh.motion is None
+    np.testing.assert_allclose(mesh.vertices.mean(axis=0), (1, 2, 3), atol=1e-6)
+
+
+def test_mirrored_instances_keep_outward_normals(scene):
+    original = add_mesh(scene, "Box")
+    mirrored = original.copy()
+    mirrored.scale = (-1, 1, 1)
+    mirrored.location = (4, 0, 0)
+    scene.collection.objects.link(mirrored)
+    (mesh,) = export(scene)[0].meshes
+    assert mesh.instance_count == 2 and np.linalg.det(mesh.instances[1][:, :3]) < 0
+    assert [_outward_fraction(copy) for copy in mesh.world_copies()] == [1.0, 1.0]
 
 
 def test_vertex_instancing(scene):
@@ -88,9 +113,11 @@ def test_vertex_instancing(scene):
     child.parent = points
     points.instance_type = "VERTS"
     meshes = export(scene)[0].meshes
-    instances = [m for m in meshes if m.name.startswith("Points/Child")]
+    # one copy of the child's mesh for its 3 vertex instances and the original (this viewport depsgraph shows it)
+    assert [m.instance_count for m in meshes if "Child" in m.name] == [4]
+    instances = [m for m in _in_world(meshes) if "Child" in m.name]
     centres = sorted(tuple(np.round(m.vertices.mean(axis=0), 5)) for m in instances)
-    assert centres == [(0, 0, 0), (0, 4, 0), (4, 0, 0)]
+    assert centres == [(0, 0, 0), (0, 0, 0), (0, 4, 0), (4, 0, 0)]
     assert all(len(m.triangles) == 12 for m in instances)
     np.testing.assert_allclose(np.ptp(instances[0].vertices, axis=0), 1.0, atol=1e-6)  # child scale
     # (Only render-mode depsgraphs hide the original child; this one is the viewport's.)
@@ -139,6 +166,8 @@ def test_geometry_nodes_instances(scene):
     holder = add_mesh(scene, "Holder", vertices=[(0, 0, 0)], faces=[])
     holder.modifiers.new("Scatter", "NODES").node_group = group
     meshes = export(scene)[0].meshes
+    assert len(meshes) == 1 and meshes[0].instance_count == 3
+    meshes = _in_world(meshes)
     assert len(meshes) == 3 and all(len(m.triangles) == 12 for m in meshes)
     centres = sorted(round(float(m.vertices.mean(axis=0)[0]), 5) for m in meshes)
     assert centres == [0.0, 2.0, 4.0]

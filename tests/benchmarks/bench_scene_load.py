@@ -8,6 +8,12 @@ render, and for VolPath the export (depsgraph -> arrays) and scene build (Accele
 Embree BVH) separately. Kernels are loaded before the clock starts.
 
     python tests/benchmarks/bench_scene_load.py [--level 5] [--samples 1]
+
+With --instances N the mesh is one collection (Suzanne at --level; level 3 has 63k triangles)
+instanced N times on a grid by empties, inside a box of fog (issue 13: memory and time should grow
+with unique geometry, not with the instance count):
+
+    python tests/benchmarks/bench_scene_load.py --instances 400 --level 3 --samples 4
 """
 from __future__ import annotations
 
@@ -28,7 +34,7 @@ def _rss_bytes() -> int:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
 
-def child(engine: str, level: int, samples: int) -> dict:
+def child(engine: str, level: int, samples: int, instances: int = 0) -> dict:
     sys.path.insert(0, str(ROOT))
     import bpy
 
@@ -52,6 +58,8 @@ def child(engine: str, level: int, samples: int) -> dict:
     modifier = obj.modifiers.new("Subdivision", "SUBSURF")
     modifier.levels = modifier.render_levels = level
     bpy.ops.object.shade_smooth()
+    if instances:
+        _instance_grid(bpy, sc, obj, instances)
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     cam.location = (0.0, -4.0, 0.0)
     cam.rotation_euler = (1.5708, 0.0, 0.0)
@@ -80,24 +88,62 @@ def child(engine: str, level: int, samples: int) -> dict:
     bpy.ops.render.render()
     seconds = time.perf_counter() - start
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-    triangles = sum(len(o.evaluated_get(bpy.context.evaluated_depsgraph_get()).data.loop_triangles)
-                    for o in sc.objects if o.type == "MESH")
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    triangles = sum(len(i.object.data.loop_triangles) for i in depsgraph.object_instances
+                    if i.object.type == "MESH" and i.show_self and i.object.name != "Fog")
     return dict(engine=engine, seconds=seconds, peak_above_start=max(peak - before, 0), triangles=triangles, **phases)
+
+
+def _instance_grid(bpy, sc, obj, count: int) -> None:
+    """obj moved into a hidden collection, instanced `count` times on a square grid by empties,
+    the whole grid inside a fog box seen by the camera."""
+    import math
+    source = bpy.data.collections.new("Suzannes")
+    sc.collection.children.link(source)
+    for collection in list(obj.users_collection):
+        collection.objects.unlink(obj)
+    source.objects.link(obj)
+    sc.view_layers[0].layer_collection.children["Suzannes"].exclude = True
+    side = math.ceil(math.sqrt(count))
+    spacing = 2.4 / side
+    for k in range(count):
+        empty = bpy.data.objects.new(f"Instance{k}", None)
+        empty.instance_type = "COLLECTION"
+        empty.instance_collection = source
+        empty.location = ((k % side - (side - 1) / 2) * spacing, 0.0, (k // side - (side - 1) / 2) * spacing)
+        empty.scale = (0.4 * spacing,) * 3
+        sc.collection.objects.link(empty)
+    bpy.ops.mesh.primitive_cube_add(size=3.0)
+    fog = bpy.context.active_object
+    fog.name = "Fog"
+    material = bpy.data.materials.new("Fog")
+    material.use_nodes = True
+    nodes = material.node_tree.nodes
+    for node in list(nodes):
+        if node.type == "BSDF_PRINCIPLED":
+            nodes.remove(node)
+    volume = nodes.new("ShaderNodeVolumePrincipled")
+    volume.inputs["Density"].default_value = 0.1
+    output = next(node for node in nodes if node.type == "OUTPUT_MATERIAL")
+    material.node_tree.links.new(volume.outputs[0], output.inputs["Volume"])
+    fog.data.materials.append(material)
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--level", type=int, default=5)
     parser.add_argument("--samples", type=int, default=1)
+    parser.add_argument("--instances", type=int, default=0)
     parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
-        print("RESULT " + json.dumps(child(args.child, args.level, args.samples)), flush=True)
+        print("RESULT " + json.dumps(child(args.child, args.level, args.samples, args.instances)), flush=True)
         os._exit(0)  # skip Blender's teardown
     rows = {}
     for engine in ("CYCLES", "VOLPATH"):
         proc = subprocess.run([sys.executable, __file__, "--child", engine, "--level", str(args.level),
-                               "--samples", str(args.samples)], capture_output=True, text=True)
+                               "--samples", str(args.samples),
+                               "--instances", str(args.instances)], capture_output=True, text=True)
         line = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")]
         if proc.returncode != 0 or not line:
             print(f"{engine} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
@@ -105,7 +151,8 @@ def main(argv=None) -> int:
         rows[engine] = json.loads(line[0][len("RESULT "):])
     cycles, volpath = rows["CYCLES"], rows["VOLPATH"]
     n = volpath["triangles"]
-    print(f"Suzanne, Subdivision level {args.level}: {n / 1e6:.2f}M triangles, 64x64, {args.samples} spp")
+    what = f"{args.instances} instances of " if args.instances else ""
+    print(f"{what}Suzanne, Subdivision level {args.level}: {n / 1e6:.2f}M triangles, 64x64, {args.samples} spp")
     print(f"  Cycles : render {cycles['seconds']:.2f} s, peak +{cycles['peak_above_start'] / 1e6:.0f} MB "
           f"({cycles['peak_above_start'] / n:.0f} bytes/triangle)")
     print(f"  VolPath: render {volpath['seconds']:.2f} s (export {volpath.get('export', 0):.2f} s, "

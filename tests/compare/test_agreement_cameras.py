@@ -1,5 +1,6 @@
 """Cameras against Cycles on scenes that need them (the criterion of test_agreement.py): depth of
-field in fog under a spot, camera motion blur in fog, an equirectangular view of a world volume."""
+field in fog under a spot, camera motion blur in fog, an equirectangular view of a world volume,
+object motion blur (a moving instance beside a still one) in fog."""
 import importlib
 
 import pytest
@@ -9,7 +10,8 @@ from addon.compare import runner
 from agreement_checks import assert_engines_agree
 
 RUNS = 8
-SCENES = {"dof_fog_spot": ((32, 32), 256), "motion_blur_fog": ((32, 32), 256), "sun_window_equirect": ((48, 24), 256)}
+SCENES = {"dof_fog_spot": ((32, 32), 256), "motion_blur_fog": ((32, 32), 256), "sun_window_equirect": ((48, 24), 256),
+          "moving_sphere_fog": ((32, 32), 256)}
 
 
 @pytest.mark.agreement
@@ -21,22 +23,32 @@ def test_camera_effects_agree_with_cycles(registered_addon, example, tmp_path):
     assert_engines_agree(result, example, tmp_path)
 
 
-PLANTED = {"dof_fog_spot": dict(aperture_size=0.0), "motion_blur_fog": dict(motion_transforms=[])}
+def _without_object_motion(native_scene):
+    for mesh in native_scene.meshes:
+        mesh.motion = None
+
+
+PLANTED = {"dof_fog_spot": dict(aperture_size=0.0), "motion_blur_fog": dict(motion_transforms=[]),
+           "moving_sphere_fog": _without_object_motion}
 
 
 @pytest.mark.agreement
-@pytest.mark.parametrize("example", list(PLANTED))
-def test_without_the_effect_the_engines_disagree(registered_addon, example):
-    """The criterion sees the effect: VolPath rendering the scene as a pinhole, or without the
-    camera's motion, must fail against Cycles where the full render passes (above)."""
+@pytest.mark.parametrize("case", list(PLANTED))
+def test_without_the_effect_the_engines_disagree(registered_addon, case):
+    """The criterion sees the effect: VolPath rendering the scene as a pinhole, without the
+    camera's motion or without the objects' motion, must fail against Cycles where the full render
+    passes (above)."""
     from addon.compare import cycles_engine, metrics, volpath_engine
 
-    resolution, samples = SCENES[example]
-    scene = importlib.import_module(f"examples.{example}").build(resolution=resolution, samples=samples)
+    resolution, samples = SCENES[case]
+    scene = importlib.import_module(f"examples.{case}").build(resolution=resolution, samples=samples)
     native_scene, warnings = volpath_engine.export(scene, resolution)
     assert not warnings, warnings
-    for key, value in PLANTED[example].items():
-        setattr(native_scene.camera, key, value)
+    if callable(PLANTED[case]):
+        PLANTED[case](native_scene)
+    else:
+        for key, value in PLANTED[case].items():
+            setattr(native_scene.camera, key, value)
     planted = volpath_engine.render_runs(native_scene, runs=RUNS, samples=samples // RUNS, base_seed=1)
     bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
     cycles = cycles_engine.render_runs(scene, runs=RUNS, samples=samples // RUNS, base_seed=101, bounces=bounces,
