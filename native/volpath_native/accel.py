@@ -1,8 +1,9 @@
-"""Ray queries against all triangles of a scene through Embree (embreex), in bulk.
+"""Ray queries against all triangles of a scene through Embree, in bulk.
 
 One Embree scene holds every non-degenerate triangle; per-triangle tables (material, geometric
-normal, area, owning mesh) are indexed by Embree's primitive id. embreex releases the GIL during
-queries, so several threads can trace at once.
+normal, area, owning mesh) are indexed by Embree's primitive id. The queries are compiled loops
+over Embree's own library (embree/: shared buffers, no copies) that release the GIL, so several
+threads trace at once.
 """
 from __future__ import annotations
 
@@ -10,7 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene import TRIANGLE_CHUNK as _CHUNK, Mesh, doubled_areas, triangle_cross as _cross
+from .embree import TriangleScene
+from .scene import TRIANGLE_CHUNK as _CHUNK, Mesh, doubled_areas, padded_rows, triangle_cross as _cross
 
 MISS = -1
 
@@ -48,7 +50,7 @@ class Accelerator:
             base += len(mesh.vertices)
         self.has_smooth = any(mesh.corner_normals is not None for mesh, _ in kept_meshes)
         if tris:
-            self.vertices = _joined(verts, np.float32)
+            self.vertices = padded_rows(_joined(verts, np.float32))
             self.triangles = _joined(tris, np.int32)
             self.material_ids = _joined(mats, np.int32)
             self.mesh_ids = _joined(mesh_ids, np.int32)
@@ -89,10 +91,10 @@ class Accelerator:
         self._corners = None
         self._embree = None
         if n:
-            from embreex import rtcore_scene
-            from embreex.mesh_construction import TriangleMesh
-            self._embree = rtcore_scene.EmbreeScene()
-            TriangleMesh(self._embree, self.vertices, self.triangles)
+            # Embree reads self.vertices / self.triangles in place (they live as long as self)
+            self._embree = TriangleScene()
+            self._embree.add_triangles(self.vertices, self.triangles, 0)
+            self._embree.commit()
 
     def corner_attributes(self, names) -> tuple:
         """(T, 3, C) float32 per-corner values of the named attributes for every kept triangle, and
@@ -147,12 +149,13 @@ class Accelerator:
                         np.zeros(n, np.float32))
         o = np.ascontiguousarray(origins, dtype=np.float32)
         d = np.ascontiguousarray(directions, dtype=np.float32)
-        dists = None if tmax is None else np.minimum(tmax, 1e30).astype(np.float32)
-        res = self._embree.run(o, d, dists=dists, output=1)
-        prim = res["primID"].astype(np.int32, copy=False)
-        t = res["tfar"].astype(np.float64)
+        t32 = np.full(n, 1e37 if tmax is None else 0, np.float32)
+        if tmax is not None:
+            t32[:] = np.minimum(tmax, 1e30)
+        t, prim, _, u, v = self._embree.intersect(o, d, t32)
+        t = t.astype(np.float64)
         t[prim < 0] = np.inf
-        return Hits(t, prim, res["u"], res["v"])
+        return Hits(t, prim, u, v)
 
     def intersect_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray) -> Hits:
         """Closest hits for contiguous float32 rays as the compiled stages use them: t is Embree's
@@ -160,15 +163,14 @@ class Accelerator:
         n = len(o32)
         if self._embree is None or n == 0:
             return Hits(t32.copy(), np.full(n, MISS, np.int32), np.zeros(n, np.float32), np.zeros(n, np.float32))
-        res = self._embree.run(o32, d32, dists=t32.copy(), output=1)
-        return Hits(res["tfar"], res["primID"].astype(np.int32, copy=False), res["u"], res["v"])
+        t, prim, _, u, v = self._embree.intersect(o32, d32, t32)
+        return Hits(t, prim, u, v)
 
     def occluded_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray) -> np.ndarray:
         """True where something blocks the contiguous float32 ray before t32."""
         if self._embree is None or len(o32) == 0:
             return np.zeros(len(o32), dtype=bool)
-        return self._embree.run(o32, d32, dists=t32.copy(), query="OCCLUDED") >= 0
-
+        return self._embree.occluded(o32, d32, t32)
 
     def shading_normals(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Interpolated smooth normals where the mesh has them, else geometric normals."""

@@ -215,6 +215,23 @@ def triangle_cross(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return np.cross(e1, e2)
 
 
+def padded_rows(values: np.ndarray, dtype=np.float32) -> np.ndarray:
+    """values as a contiguous (N, 3) array whose memory extends at least 16 bytes past its end
+    inside the same numpy allocation (Embree reads vertex buffers with 16-byte loads,
+    rtcSetSharedGeometryBuffer): values itself when it already does, else a padded copy."""
+    values = np.ascontiguousarray(values, dtype=dtype).reshape(-1, 3)
+    owner = values
+    while isinstance(owner.base, np.ndarray):
+        owner = owner.base
+    start = owner.__array_interface__["data"][0]
+    end = values.__array_interface__["data"][0] + values.nbytes
+    if owner is not values and owner.flags.c_contiguous and end + 16 <= start + owner.nbytes:
+        return values
+    padded = np.zeros((len(values) + 2, 3), dtype)
+    padded[:len(values)] = values
+    return padded[:len(values)]
+
+
 def doubled_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """(T,) float64 twice the area of each triangle, in chunks (no (T, 3, 3) float64 temporary)."""
     out = np.empty(len(triangles))
@@ -283,7 +300,7 @@ class Mesh:
     corner_normal_motion: Optional[np.ndarray] = None
 
     def __post_init__(self):
-        self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float32).reshape(-1, 3)
+        self.vertices = padded_rows(self.vertices)  # Embree shares it (embree.TriangleScene)
         self.triangles = np.ascontiguousarray(self.triangles, dtype=np.int32).reshape(-1, 3)
         self.material_ids = np.ascontiguousarray(self.material_ids, dtype=np.int32).reshape(-1)
         if self.corner_normals is not None:
