@@ -405,13 +405,21 @@ class Mesh:
                     normals = normals[:, ::-1]
             attributes = self.corner_attributes if np.linalg.det(linear) > 0 else \
                 {name: values[:, ::-1] for name, values in self.corner_attributes.items()}
+            vertex_motion = None if self.vertex_motion is None else \
+                (self.vertex_motion.astype(np.float64) @ linear.T + offset).astype(np.float32)
+            normal_motion = None
+            if self.corner_normal_motion is not None:
+                normal_motion = self.corner_normal_motion.astype(np.float64) @ inverse
+                normal_motion /= np.maximum(np.linalg.norm(normal_motion, axis=3, keepdims=True), 1e-30)
+                if np.linalg.det(linear) < 0:
+                    normal_motion = normal_motion[:, :, ::-1]
             frame = np.array(base, dtype=np.float64)
             # world -> object = (prototype -> object frame) o (world -> prototype)
             world_to_proto = np.concatenate([inverse, (-inverse @ offset)[:, None]], axis=1)
             frame[0, :, :3] = base[0, :, :3] @ world_to_proto[:, :3]
             frame[0, :, 3] = base[0, :, :3] @ world_to_proto[:, 3] + base[0, :, 3]
             copies.append(Mesh(f"{self.name}[{k}]", vertices, triangles, self.material_ids, normals, attributes,
-                               frame))
+                               frame, vertex_motion=vertex_motion, corner_normal_motion=normal_motion))
         return copies
 
     def _validate_placement(self, n_tri: int) -> list[str]:

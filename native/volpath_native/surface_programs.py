@@ -328,8 +328,9 @@ def _set_rgb(D, row, code, r, g, b):
 
 
 @stage_kernel
-def shade_surface_program(SP, SS, SN, material, prim, hu, hv, px, py, pz, ns, ng, wi, backfacing):
-    """Run material `material`'s program at a hit (triangle prim, barycentrics hu, hv, point p,
+def shade_surface_program(SP, SS, SN, material, prim, frame, hu, hv, px, py, pz, ns, ng, wi, backfacing):
+    """Run material `material`'s program at a hit (triangle prim, its object's row `frame` in
+    SP.frames -- SP.tri_mesh[prim], or an instance's row (accel.mesh_frames) --, barycentrics hu, hv, point p,
     shading normal ns and geometric normal ng on the viewer's side, wi towards the viewer) and
     write the material's nodes with this hit's inputs into SS.nodes (its material 0). Returns the
     closures' normal."""
@@ -357,7 +358,7 @@ def shade_surface_program(SP, SS, SN, material, prim, hu, hv, px, py, pz, ns, ng
         for c in range(width):
             init[reg + c] = _corner(SP, prim, w0, hu, hv, channel + c) if channel >= 0 else 0.0
     regs = SS.regs
-    run_program(SP.code[c0:c1], init[:n_regs], SP.tables[t0:t1], regs, SP.frames[SP.tri_mesh[prim]], SP.no_grid,
+    run_program(SP.code[c0:c1], init[:n_regs], SP.tables[t0:t1], regs, SP.frames[frame], SP.no_grid,
                 SP.no_world_to_index, px, py, pz, SP.images)
     # the material's rows, then this hit's values
     D = SS.nodes
