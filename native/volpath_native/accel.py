@@ -40,9 +40,10 @@ class Accelerator:
     Instanced meshes (Mesh.instances) keep their triangles once, in object space, after the
     world-space ones (triangle ids >= world_triangle_count); Embree instances them and a hit
     reports the prototype's triangle and the instance (Hits.inst). Per instance: object -> world
-    (instance_transforms), the normal map n_world ~ instance_normals[k] @ n_object (inverse
-    transpose times the sign of the determinant, so geometric normals stay outward on mirrored
-    instances, as Cycles flips them for negative scale) and its row in mesh_frames(). Instanced
+    (instance_transforms), the normal map n_world ~ instance_normals[k] @ n_object (the inverse
+    transpose: an outward normal stays outward, on mirrored instances too, where the winding of
+    the placed corners flips -- Cycles flips that cross product for negative scale) and its row in
+    mesh_frames(). Instanced
     meshes whose materials emit or bound a medium are traced as world copies instead (the light
     table and the volume stacks index world triangles)."""
 
@@ -180,24 +181,23 @@ class Accelerator:
         counts = {id(mesh): len(t) for t, (mesh, _) in zip(tris, kept_meshes)}
         for mesh in prototypes:
             count = counts.get(id(mesh), 0)
-            usable = [k for k in range(mesh.instance_count)
-                      if abs(np.linalg.det(mesh.instances[k][:, :3])) > 1e-30]  # validate() warns
-            if count and usable:
+            usable = np.nonzero(np.abs(np.linalg.det(mesh.instances[:, :, :3])) > 1e-30)[0]  # validate() warns
+            if count and len(usable):
                 steps = [mesh.motion[k] if mesh.motion is not None else mesh.instances[k][None] for k in usable]
                 ranges.append((first, count, steps))
                 placements += steps
                 transforms += [mesh.instances[k] for k in usable]
                 mesh_index = next(i for i, m in enumerate(self._meshes) if m is mesh)
-                frame_rows += [(mesh_index, k) for k in usable]
+                frame_rows.append((mesh_index, usable))
             first += count
         self._prototype_ranges = ranges
         self._instance_frames = frame_rows
         self.instance_count = len(transforms)
         self.instance_transforms = np.ascontiguousarray(np.reshape(transforms, (-1, 3, 4)), dtype=np.float64)
         normals = np.zeros((max(self.instance_count, 1), 3, 3))
-        for k, transform in enumerate(self.instance_transforms):
-            linear = transform[:, :3]
-            normals[k] = np.linalg.inv(linear).T * np.sign(np.linalg.det(linear))
+        if self.instance_count:  # batched: one LAPACK call per instance is slow (ms each)
+            linear = self.instance_transforms[:, :, :3]
+            normals[:] = np.linalg.inv(linear).transpose(0, 2, 1)
         self.instance_normals = normals
         # moving instances: decomposed steps per instance (instance_motion.py)
         self.instance_steps, self.instance_motion = motion_table(placements)
@@ -255,9 +255,9 @@ class Accelerator:
         if not self._meshes:
             return np.zeros((1, 2, 3, 4))
         frames = [m.frame() for m in self._meshes]
-        for mesh_index, k in self._instance_frames:
-            frames.append(_instance_frame(frames[mesh_index], self._meshes[mesh_index].instances[k]))
-        return np.ascontiguousarray(np.stack(frames), dtype=np.float64)
+        placed = [_instance_frames(frames[mesh_index], self._meshes[mesh_index].instances[ks])
+                  for mesh_index, ks in self._instance_frames]
+        return np.ascontiguousarray(np.concatenate([np.stack(frames)] + placed), dtype=np.float64)
 
     @property
     def instance_frame_base(self) -> int:
@@ -350,14 +350,13 @@ def _must_flatten(mesh: Mesh, materials) -> bool:
     return any(materials[i].is_emissive or materials[i].medium >= 0 for i in used if 0 <= i < len(materials))
 
 
-def _instance_frame(frame: np.ndarray, transform: np.ndarray) -> np.ndarray:
-    """A mesh frame seen from world space through an object -> world instance transform:
-    world -> object = (prototype -> object frame) o (world -> prototype)."""
-    linear, offset = transform[:, :3], transform[:, 3]
-    inverse = np.linalg.inv(linear)
-    placed = np.array(frame, dtype=np.float64)
-    placed[0, :, :3] = frame[0, :, :3] @ inverse
-    placed[0, :, 3] = frame[0, :, 3] - frame[0, :, :3] @ inverse @ offset
+def _instance_frames(frame: np.ndarray, transforms: np.ndarray) -> np.ndarray:
+    """(K, 2, 3, 4): a mesh frame seen from world space through K object -> world instance
+    transforms: world -> object = (prototype -> object frame) o (world -> prototype)."""
+    inverse = np.linalg.inv(transforms[:, :, :3])
+    placed = np.repeat(np.asarray(frame, np.float64)[None], len(transforms), axis=0)
+    placed[:, 0, :, :3] = frame[0, :, :3] @ inverse
+    placed[:, 0, :, 3] = frame[0, :, 3] - np.einsum("kij,kj->ki", placed[:, 0, :, :3], transforms[:, :, 3])
     return placed
 
 

@@ -75,11 +75,14 @@ def transform_at1(table, steps, k, time):
 
 @inline_stage_kernel
 def normal_map1(table, steps, k, time, x, y, z):
-    """Object-space normal (x, y, z) of instance k in world space at `time`, unnormalised: the
-    cofactor matrix of M (= det M M^-T, so outward stays outward for mirrored instances too)."""
+    """Object-space normal (x, y, z) of instance k in world space at `time`, unnormalised:
+    M^-T n as the cofactor matrix of M (= det M M^-T) times the sign of det M (an outward normal
+    stays outward, on mirrored instances too)."""
     m, _ = transform_at1(table, steps, k, time)
     m00, m01, m02, m10, m11, m12, m20, m21, m22 = m
     c00, c01, c02 = m11 * m22 - m12 * m21, m12 * m20 - m10 * m22, m10 * m21 - m11 * m20
     c10, c11, c12 = m02 * m21 - m01 * m22, m00 * m22 - m02 * m20, m01 * m20 - m00 * m21
     c20, c21, c22 = m01 * m12 - m02 * m11, m02 * m10 - m00 * m12, m00 * m11 - m01 * m10
-    return (c00 * x + c01 * y + c02 * z, c10 * x + c11 * y + c12 * z, c20 * x + c21 * y + c22 * z)
+    sign = 1.0 if m00 * c00 + m01 * c01 + m02 * c02 >= 0.0 else -1.0  # det M along the first row
+    return (sign * (c00 * x + c01 * y + c02 * z), sign * (c10 * x + c11 * y + c12 * z),
+            sign * (c20 * x + c21 * y + c22 * z))

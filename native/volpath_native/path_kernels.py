@@ -634,7 +634,7 @@ def _advance_through(S, F, C, p, prim, front, t, d):
 @inline_stage_kernel
 def _placed_normal(S, inst, time, x, y, z):
     """An object-space normal of an instanced hit in world space (unnormalised): through accel's
-    instance_normals (inverse transpose, sign of the determinant folded in), or for a moving
+    instance_normals (inverse transpose), or for a moving
     instance through its transform at the ray's time (instance_motion.normal_map1). World-space
     hits (inst < 0) keep theirs."""
     if inst < 0:

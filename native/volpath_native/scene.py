@@ -265,14 +265,17 @@ class Mesh:
         last row [0 0 0 1]); the mesh's vertices, corner_normals and "tangent:" attributes are
         then in object space and the mesh appears K times. None (default): the vertices are in
         world space and the mesh appears once (what every exporter wrote before). Memory grows
-        with the unique meshes, not with K. An emissive instanced mesh is expanded into world
-        triangles for light sampling only. The exporter groups depsgraph object instances by
+        with the unique meshes, not with K. An emitting or medium-bounding instanced mesh is
+        expanded into world copies (the light table and volume stacks index world triangles;
+        such a mesh with `motion` renders still, warned). The exporter groups depsgraph object instances by
         their evaluated mesh datablock (collection instances, particle/geometry-nodes instances
         and linked duplicates alike) and fills one Mesh per unique mesh with every
         instance.matrix_world[:3] (float64) here.
     motion: optional (K, S, 3, 4) float64 object -> world of every instance at S >= 2 shutter
         times evenly spaced from the shutter's opening (step 0) to its closing (step S - 1),
-        the same steps as Camera.motion_transforms (Cycles' object motion steps, interpolated
+        the same steps as Camera.motion_transforms (Cycles' object motion steps: S from the
+        object's Motion Blur steps, blender/util.h object_motion_steps, the middle step the
+        frame itself, Object::motion_time spacing them over the shutter; interpolated
         decomposed: quaternion slerp of the rotation, linear scale and translation, as Cycles'
         transform_motion_decompose / Embree's rtcSetGeometryTransformQuaternion). Requires
         `instances` (the transforms at the frame itself: bounds, light sampling, renders without

@@ -165,3 +165,19 @@ def test_instanced_emitter_is_flattened_for_light_sampling():
     assert accel.instance_count == 0 and accel.triangle_count == 2 * len(sphere.triangles)
     accel = Accelerator([sphere], [Material("grey")])
     assert accel.instance_count == 2 and accel.triangle_count == len(sphere.triangles)
+
+
+def test_instance_frames_and_normals_match_the_world_copies():
+    from volpath_native.accel import Accelerator
+    sphere = smooth_sphere("s")
+    sphere.instances = sphere_instances()
+    accel = Accelerator([sphere], [Material("grey")])
+    frames = accel.mesh_frames()[accel.instance_frame_base:]
+    copies = sphere.world_copies()
+    assert len(frames) == len(copies) == accel.instance_count == 4
+    for k, copy in enumerate(copies):
+        np.testing.assert_allclose(frames[k], copy.object_frame, atol=1e-12)
+        # the outward geometric normal of triangle 0 through the instance = the copy's own
+        expected = np.cross(*(copy.vertices[copy.triangles[0]][1:] - copy.vertices[copy.triangles[0]][0]))
+        got = accel.geometric_normals(np.int32([0]), np.int32([k]))[0]
+        np.testing.assert_allclose(got, expected / np.linalg.norm(expected), atol=1e-5)

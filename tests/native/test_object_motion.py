@@ -171,3 +171,23 @@ def test_tilting_quad_is_shaded_with_its_normal_at_the_ray_time():
     frame = albedo / np.pi * interpolated(0.5)[2]  # planted: the frame's normal throughout
     assert abs(frame - expected) > 0.01
     assert np.all(np.abs((pixels - frame) / np.sqrt(np.maximum(result.variance[..., 0], 1e-12))) > Z_LIMIT)
+
+
+def test_moving_instance_normals_are_the_inverse_transpose_at_the_time():
+    """instance_motion.normal_map1 (the stages' normals of moving instances) against M(t)^-T n of
+    the decomposed interpolation, mirrored steps included (outward stays outward)."""
+    from volpath_native.instance_motion import motion_table, normal_map1, transform_at1
+    steps = np.stack([_turn(0.0, [1, 1, 1], [0, 0, 0]), _turn(1.2, [1.5, 1, 0.7], [1, 0.5, 0]),
+                      _turn(2.6, [1, 1, 1], [2, 0, 0.3])])
+    mirrored = steps * np.array([-1.0, 1, 1, 1])  # x column negated: det < 0 at every step
+    counts, table = motion_table([steps, mirrored])
+    n = np.array([0.3, -0.5, 0.8])
+    for k, transforms in enumerate((steps, mirrored)):
+        for time in (0.0, 0.3, 0.5, 0.9, 1.0):
+            expected = decomposed_at(transforms, time)
+            m, offset = transform_at1(table, counts[k], k, time)
+            np.testing.assert_allclose(np.reshape(m, (3, 3)), expected[:, :3], atol=1e-9)
+            np.testing.assert_allclose(offset, expected[:, 3], atol=1e-9)
+            got = np.array(normal_map1(table, counts[k], k, time, *n))
+            want = np.linalg.inv(expected[:, :3]).T @ n
+            np.testing.assert_allclose(got / np.linalg.norm(got), want / np.linalg.norm(want), atol=1e-9)

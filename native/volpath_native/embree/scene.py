@@ -10,10 +10,9 @@ from ..scene import padded_rows
 from . import library as lib
 from .queries import intersect_rays, new_rayhit, occluded_rays
 
-# Build quality by size (Cycles scene/bvh_embree.cpp uses MEDIUM, HIGH only with spatial splits;
-# Embree's LOW is a Morton build for dynamic content). Past this many triangles, LOW: builds in
-# about a third of the time for a few per cent slower rays (tests/benchmarks/bench_scene_load.py).
-LOW_QUALITY_TRIANGLES = 1 << 62  # not used yet: see README (measured)
+# Build quality: MEDIUM, as Cycles for static scenes (bvh/embree.cpp: HIGH only with spatial
+# splits, LOW for dynamic scenes); robust triangle tests (Cycles sets RTC_SCENE_FLAG_ROBUST too,
+# and so does embreex: the same hits as before this binding).
 
 
 class EmbreeError(RuntimeError):
