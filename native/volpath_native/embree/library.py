@@ -1,8 +1,12 @@
-"""The Embree 4 library embreex ships, loaded twice over: through ctypes for the set-up calls made
-from Python (device, scenes, geometries, buffers, commits), and into LLVM's symbol table
-(llvmlite load_library_permanently) so compiled query loops call rtcIntersect1 / rtcOccluded1 by
+"""The Embree 4 library embreex ships, loaded through ctypes (RTLD_LOCAL): the set-up calls made
+from Python (device, scenes, geometries, buffers, commits) go through its handle, and the query
+entry points are registered in LLVM's symbol table under names of our own (llvmlite add_symbol:
+"volpath_rtcIntersect1" -> this library's rtcIntersect1), so compiled query loops call them by
 name. Calls by name keep those loops in numba's on-disk cache (a ctypes function pointer would be
-a constant address baked into the code, which numba refuses to cache).
+a constant address baked into the code, which numba refuses to cache; the name is resolved again
+when the cached code is loaded). Names of our own because a process may hold another Embree:
+Debian's Blender 3.4 links libembree3, whose rtcIntersect1 (another signature) a lookup by the
+plain name finds first.
 
 Enum values and struct layouts: Embree 4's public headers (include/embree4/rtcore_common.h,
 rtcore_buffer.h, rtcore_geometry.h, rtcore_scene.h, rtcore_ray.h, rtcore_quaternion.h); the ray
@@ -55,8 +59,11 @@ def library_path() -> str:
     override = os.environ.get("VOLPATH_EMBREE_LIBRARY")
     if override:
         return override
-    import embreex  # noqa: F401  (its wheel carries the library next to the package)
-    root = Path(embreex.__file__).resolve().parent.parent
+    import importlib.util
+    spec = importlib.util.find_spec("embreex")  # located, not imported (its modules are not needed)
+    if spec is None or not spec.submodule_search_locations:
+        raise ImportError("embreex is not installed: it provides the Embree 4 library")
+    root = Path(list(spec.submodule_search_locations)[0]).resolve().parent
     for pattern in ("embreex.libs/libembree4*.so*", "embreex/.dylibs/libembree4*.dylib", "embreex/embree4.dll",
                     "embreex.libs/embree4*.dll", "embreex/libembree4*.so*"):
         found = sorted(glob.glob(str(root / pattern)))
@@ -66,7 +73,7 @@ def library_path() -> str:
 
 
 PATH = library_path()
-_lib = ctypes.CDLL(PATH, mode=ctypes.RTLD_GLOBAL)
+_lib = ctypes.CDLL(PATH)
 
 _VP, _U, _SZ, _F = ctypes.c_void_p, ctypes.c_uint, ctypes.c_size_t, ctypes.c_float
 _SIGNATURES = {
@@ -104,10 +111,16 @@ class _Api:
 api = _Api()
 
 
+QUERY_SYMBOLS = ("rtcIntersect1", "rtcOccluded1")
+SYMBOL_PREFIX = "volpath_"
+
+
 def register_symbols():
-    """Make the library's symbols resolvable by name in numba-compiled code (idempotent)."""
+    """Make this library's query entry points resolvable as volpath_<name> in numba-compiled code
+    (explicit symbols are searched before any loaded library; idempotent)."""
     import llvmlite.binding as llvm
-    llvm.load_library_permanently(PATH)
+    for name in QUERY_SYMBOLS:
+        llvm.add_symbol(SYMBOL_PREFIX + name, ctypes.cast(getattr(_lib, name), ctypes.c_void_p).value)
 
 
 register_symbols()

@@ -1,6 +1,6 @@
 """Bulk ray queries over contiguous float32 rays, compiled: one loop per call that fills an
-RTCRayHit / RTCRay and calls rtcIntersect1 / rtcOccluded1 (rtcore_scene.h) by symbol name
-(library.register_symbols), without the GIL, so render threads trace in parallel. The loops are
+RTCRayHit / RTCRay and calls rtcIntersect1 / rtcOccluded1 (rtcore_scene.h) by the names
+library.register_symbols gives them, without the GIL, so render threads trace in parallel. The loops are
 cached on disk like every kernel (jit.py): an external function called by name is relocated when
 the cached code is loaded, after library.py has put the symbols into LLVM's table."""
 from __future__ import annotations
@@ -11,8 +11,10 @@ from numba import types
 from ..jit import stage_kernel
 from . import library as lib
 
-_rtc_intersect1 = types.ExternalFunction("rtcIntersect1", types.void(types.uintp, types.uintp, types.uintp))
-_rtc_occluded1 = types.ExternalFunction("rtcOccluded1", types.void(types.uintp, types.uintp, types.uintp))
+_rtc_intersect1 = types.ExternalFunction(lib.SYMBOL_PREFIX + "rtcIntersect1",
+                                         types.void(types.uintp, types.uintp, types.uintp))
+_rtc_occluded1 = types.ExternalFunction(lib.SYMBOL_PREFIX + "rtcOccluded1",
+                                        types.void(types.uintp, types.uintp, types.uintp))
 
 RAY_ORG, RAY_TNEAR, RAY_DIR, RAY_TIME = lib.RAY_ORG, lib.RAY_TNEAR, lib.RAY_DIR, lib.RAY_TIME
 RAY_TFAR, RAY_MASK, RAY_ID, RAY_FLAGS = lib.RAY_TFAR, lib.RAY_MASK, lib.RAY_ID, lib.RAY_FLAGS
