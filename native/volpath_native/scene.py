@@ -232,6 +232,14 @@ def padded_rows(values: np.ndarray, dtype=np.float32) -> np.ndarray:
     return padded[:len(values)]
 
 
+def _affine_rows(values, name: str, ndim: int) -> np.ndarray:
+    """float64 (..., 3, 4) affine maps of (..., 3, 4) or (..., 4, 4) input with `ndim` dimensions."""
+    values = np.asarray(values, dtype=np.float64)
+    if values.ndim != ndim or values.shape[-2:] not in ((3, 4), (4, 4)):
+        raise SceneError(f"{name}: expected {ndim} dimensions ending in (3, 4) or (4, 4), got shape {values.shape}")
+    return np.ascontiguousarray(values[..., :3, :])
+
+
 def doubled_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """(T,) float64 twice the area of each triangle, in chunks (no (T, 3, 3) float64 temporary)."""
     out = np.empty(len(triangles))
@@ -262,7 +270,7 @@ class Mesh:
 
     Instancing (Cycles' object instancing: one BVH per unique mesh, an instance per object):
     instances: optional (K, 3, 4) float64 object -> world affine maps (rows of a 4x4 without its
-        last row [0 0 0 1]); the mesh's vertices, corner_normals and "tangent:" attributes are
+        last row [0 0 0 1]; (K, 4, 4) is taken too, its last row dropped); the mesh's vertices, corner_normals and "tangent:" attributes are
         then in object space and the mesh appears K times. None (default): the vertices are in
         world space and the mesh appears once (what every exporter wrote before). Memory grows
         with the unique meshes, not with K. An emitting or medium-bounding instanced mesh is
@@ -317,11 +325,10 @@ class Mesh:
         self.corner_attributes = attributes
         if self.object_frame is not None:
             self.object_frame = np.ascontiguousarray(self.object_frame, dtype=np.float64).reshape(2, 3, 4)
-        if self.instances is not None:
-            self.instances = np.ascontiguousarray(self.instances, dtype=np.float64).reshape(-1, 3, 4)
+        if self.instances is not None:  # 4x4 matrices (Blender's matrix_world) lose their last row
+            self.instances = _affine_rows(self.instances, f"mesh '{self.name}' instances", 3)
         if self.motion is not None:
-            motion = np.ascontiguousarray(self.motion, dtype=np.float64)
-            self.motion = motion.reshape(motion.shape[0], -1, 3, 4) if motion.ndim >= 2 else motion
+            self.motion = _affine_rows(self.motion, f"mesh '{self.name}' motion", 4)
         if self.vertex_motion is not None:
             vertex_motion = np.ascontiguousarray(self.vertex_motion, dtype=np.float32)
             self.vertex_motion = vertex_motion.reshape(vertex_motion.shape[0], -1, 3) if vertex_motion.ndim >= 1 \

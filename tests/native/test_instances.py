@@ -181,3 +181,15 @@ def test_instance_frames_and_normals_match_the_world_copies():
         expected = np.cross(*(copy.vertices[copy.triangles[0]][1:] - copy.vertices[copy.triangles[0]][0]))
         got = accel.geometric_normals(np.int32([0]), np.int32([k]))[0]
         np.testing.assert_allclose(got, expected / np.linalg.norm(expected), atol=1e-5)
+
+
+def test_four_by_four_matrices_are_taken_and_bad_shapes_named():
+    mesh = box_mesh("b", [0, 0, 0], [1, 1, 1])
+    full = np.tile(np.eye(4), (2, 1, 1))
+    full[1, :3, 3] = [2, 0, 0]
+    placed_mesh = Mesh("b", mesh.vertices, mesh.triangles, mesh.material_ids, instances=full,
+                       motion=np.stack([full, full], axis=1))
+    assert placed_mesh.instances.shape == (2, 3, 4) and placed_mesh.motion.shape == (2, 2, 3, 4)
+    np.testing.assert_array_equal(placed_mesh.instances[1, :, 3], [2, 0, 0])
+    with pytest.raises(SceneError, match="instances: expected 3 dimensions"):
+        Mesh("b", mesh.vertices, mesh.triangles, mesh.material_ids, instances=np.zeros((2, 3, 3)))
