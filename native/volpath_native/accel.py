@@ -1,8 +1,10 @@
-"""Ray queries against all triangles of a scene through Embree (embreex), in bulk.
+"""Ray queries against all triangles of a scene through Embree, in bulk.
 
-One Embree scene holds every non-degenerate triangle; per-triangle tables (material, geometric
-normal, area, owning mesh) are indexed by Embree's primitive id. embreex releases the GIL during
-queries, so several threads can trace at once.
+One Embree scene holds every non-degenerate triangle, world-space ones directly and instanced
+meshes once each, placed by Embree instances; per-triangle tables (material, geometric normal,
+area, owning mesh) are indexed by the triangle id a hit reports. The queries are compiled loops
+over Embree's own library (embree/: shared buffers, no copies) that release the GIL, so several
+threads trace at once.
 """
 from __future__ import annotations
 
@@ -10,9 +12,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene import TRIANGLE_CHUNK as _CHUNK, Mesh, doubled_areas, triangle_cross as _cross
+from .embree import TriangleScene
+from .instance_motion import motion_table
+from .scene import TRIANGLE_CHUNK as _CHUNK, Mesh, doubled_areas, padded_rows, triangle_cross as _cross
 
 MISS = -1
+NO_INSTANCE = -1
 
 
 @dataclass
@@ -21,18 +26,43 @@ class Hits:
     prim: np.ndarray     # (N,) int32 triangle index, MISS (-1) on a miss
     u: np.ndarray        # (N,) float32 barycentric of vertex 1
     v: np.ndarray        # (N,) float32 barycentric of vertex 2
+    inst: np.ndarray = None  # (N,) int32 instance of the hit, NO_INSTANCE (-1) for world triangles
 
 
 class Accelerator:
-    """All triangles of the scene, flattened, and an Embree BVH over them.
+    """All triangles of the scene and an Embree BVH over them.
 
     Per triangle it keeps: vertex indices (int32), material and mesh ids (int32), the geometric
     normal (float64 x3), the area (float64) and, for smooth meshes, corner normals (float32 x9);
     the float64 corner positions (`corners`, 72 bytes a triangle) only when asked for
-    (triangle_corners for a few). Array work runs in chunks, so temporaries stay small."""
+    (triangle_corners for a few). Array work runs in chunks, so temporaries stay small.
 
-    def __init__(self, meshes: list[Mesh]):
-        meshes = [copy for mesh in meshes for copy in mesh.world_copies()]
+    Instanced meshes (Mesh.instances) keep their triangles once, in object space, after the
+    world-space ones (triangle ids >= world_triangle_count); Embree instances them and a hit
+    reports the prototype's triangle and the instance (Hits.inst). Per instance: object -> world
+    (instance_transforms), the normal map n_world ~ instance_normals[k] @ n_object (the inverse
+    transpose: an outward normal stays outward, on mirrored instances too, where the winding of
+    the placed corners flips -- Cycles flips that cross product for negative scale) and its row in
+    mesh_frames(). Instanced
+    meshes whose materials emit or bound a medium are traced as world copies instead (the light
+    table and the volume stacks index world triangles)."""
+
+    def __init__(self, meshes: list[Mesh], materials: list | None = None):
+        world, prototypes = [], []
+        self.warnings: list[str] = []
+        for mesh in meshes:
+            if mesh.instances is None:
+                world.append(mesh)
+            elif _must_flatten(mesh, materials):
+                world += mesh.world_copies()
+                if mesh.motion is not None:
+                    self.warnings.append(f"mesh '{mesh.name}': an emitting or medium-bounding object is rendered "
+                                         "without its object motion blur (not supported for those yet)")
+            else:
+                prototypes.append(mesh)
+        # static world meshes share one Embree geometry; deforming ones get their own (time steps)
+        meshes = [m for m in world if m.vertex_motion is None] + [m for m in world if m.vertex_motion is not None] \
+            + prototypes
         verts, tris, mats, mesh_ids, kept_meshes = [], [], [], [], []
         base = 0
         for mesh_index, mesh in enumerate(meshes):
@@ -40,15 +70,16 @@ class Accelerator:
             if len(t):
                 keep = doubled_areas(mesh.vertices, t) > 1e-20  # degenerate ones dropped (Scene.validate warns)
                 everything = bool(keep.all())
+                kept = t if everything else t[keep]
                 verts.append(mesh.vertices)
-                tris.append((t if everything else t[keep]) + base)
+                tris.append(kept + base if base else kept)
                 mats.append(mesh.material_ids if everything else mesh.material_ids[keep])
                 mesh_ids.append(np.full(len(tris[-1]), mesh_index, dtype=np.int32))
                 kept_meshes.append((mesh, None if everything else keep))
             base += len(mesh.vertices)
         self.has_smooth = any(mesh.corner_normals is not None for mesh, _ in kept_meshes)
         if tris:
-            self.vertices = _joined(verts, np.float32)
+            self.vertices = padded_rows(_joined(verts, np.float32))  # Embree reads it in place
             self.triangles = _joined(tris, np.int32)
             self.material_ids = _joined(mats, np.int32)
             self.mesh_ids = _joined(mesh_ids, np.int32)
@@ -58,7 +89,7 @@ class Accelerator:
             self.material_ids = np.zeros(0, np.int32)
             self.mesh_ids = np.zeros(0, np.int32)
         n = len(self.triangles)
-        self.normals = np.empty((n, 3))  # outward for CCW triangles
+        self.normals = np.empty((n, 3))  # outward for CCW triangles (object space for prototypes)
         self.areas = np.empty(n)
         for lo in range(0, n, _CHUNK):
             hi = min(lo + _CHUNK, n)
@@ -77,22 +108,122 @@ class Accelerator:
                 else:
                     self.corner_normals[start:start + count] = normals if keep is None else normals[keep]
                 start += count
-        used = np.zeros(len(self.vertices), bool)
-        used[self.triangles.reshape(-1)] = True
-        lo = self.vertices[used].min(axis=0).astype(np.float64) if n else np.zeros(3)
-        hi = self.vertices[used].max(axis=0).astype(np.float64) if n else np.zeros(3)
+        self._meshes = list(meshes)  # per-corner attributes and frames (surface programs)
+        self._kept = kept_meshes
+        self.world_triangle_count = sum(len(t) for t, (mesh, _) in zip(tris, kept_meshes) if mesh.instances is None)
+        self._deformation_tables(tris, kept_meshes)
+        self._place_instances(prototypes, tris, kept_meshes)
+        lo, hi = self._world_bounds()
         self.bounds = (lo, hi)
         # Ray offset scale: relative to the scene extent, so it works in mm and km scenes.
         self.epsilon = 1e-5 * max(1.0, float(np.abs(np.concatenate([lo, hi])).max()))
-        self._meshes = list(meshes)  # per-corner attributes and frames (surface programs)
-        self._kept = kept_meshes
         self._corners = None
         self._embree = None
         if n:
-            from embreex import rtcore_scene
-            from embreex.mesh_construction import TriangleMesh
-            self._embree = rtcore_scene.EmbreeScene()
-            TriangleMesh(self._embree, self.vertices, self.triangles)
+            # Embree reads self.vertices / self.triangles in place (they live as long as self):
+            # the world triangles in the top scene, each prototype's range in a scene of its own
+            # (a deforming mesh: its own vertex steps and triangles, Cycles bvh/embree.cpp add_triangles)
+            self._embree = TriangleScene()
+            deforming = {first: (mesh, keep) for first, (mesh, keep) in self._deforming.items()}
+            static = min([self.world_triangle_count] + [f for f in deforming if f < self.world_triangle_count])
+            if static:
+                self._embree.add_triangles(self.vertices, self.triangles[:static], 0)
+            for first, (mesh, keep) in deforming.items():
+                if first < self.world_triangle_count:
+                    self._embree.add_triangles(list(mesh.vertex_motion), _kept(mesh.triangles, keep), first)
+            for first, count, placements in self._prototype_ranges:
+                prototype = TriangleScene()
+                if first in deforming:
+                    mesh, keep = deforming[first]
+                    prototype.add_triangles(list(mesh.vertex_motion), _kept(mesh.triangles, keep), 0)
+                else:
+                    prototype.add_triangles(self.vertices, self.triangles[first:first + count], 0)
+                prototype.commit()
+                for steps in placements:
+                    self._embree.add_instance(prototype, steps, first)
+            self._embree.commit()
+
+    def _deformation_tables(self, tris: list, kept_meshes: list):
+        """Deforming meshes (Mesh.vertex_motion): per triangle [first row, steps, stride, has
+        normal steps] into deform_corners (rows of (3, 3) float32 corner positions: row first + s *
+        stride at step s) and deform_normals (the corner normals' steps, same rows), for the
+        stages' normals at a ray's time (Cycles geom/motion_triangle.h: vertices and normals
+        interpolated linearly between the two steps around the time)."""
+        self._deforming = {}
+        rows, corners, normals, start, row = [], [], [], 0, 0
+        for t, (mesh, keep) in zip(tris, kept_meshes):
+            if mesh.vertex_motion is not None:
+                self._deforming[start] = (mesh, keep)
+                local = _kept(mesh.triangles, keep)
+                steps = len(mesh.vertex_motion)
+                with_normals = mesh.corner_normal_motion is not None
+                rows.append((start, len(t), row, steps, len(t), int(with_normals)))
+                for s in range(steps):
+                    corners.append(mesh.vertex_motion[s][local])
+                    normals.append(_kept(mesh.corner_normal_motion[s], keep) if with_normals
+                                   else np.zeros((len(t), 3, 3), np.float32))
+                row += steps * len(t)
+            start += len(t)
+        self.has_deformation = bool(rows)
+        self.deform_rows = np.full((self.triangle_count if rows else 1, 4), -1, np.int64)
+        for first, count, row0, steps, stride, with_normals in rows:
+            self.deform_rows[first:first + count, 0] = row0 + np.arange(count)
+            self.deform_rows[first:first + count, 1:] = (steps, stride, with_normals)
+        self.deform_corners = np.ascontiguousarray(np.concatenate(corners) if rows else np.zeros((1, 3, 3)),
+                                                   dtype=np.float32)
+        self.deform_normals = np.ascontiguousarray(np.concatenate(normals) if rows else np.zeros((1, 3, 3)),
+                                                   dtype=np.float32)
+
+    def _place_instances(self, prototypes: list, tris: list, kept_meshes: list):
+        """Per-instance tables, in the order Embree numbers the instances."""
+        first = self.world_triangle_count
+        ranges, transforms, frame_rows, placements = [], [], [], []
+        counts = {id(mesh): len(t) for t, (mesh, _) in zip(tris, kept_meshes)}
+        for mesh in prototypes:
+            count = counts.get(id(mesh), 0)
+            usable = np.nonzero(np.abs(np.linalg.det(mesh.instances[:, :, :3])) > 1e-30)[0]  # validate() warns
+            if count and len(usable):
+                steps = [mesh.motion[k] if mesh.motion is not None else mesh.instances[k][None] for k in usable]
+                ranges.append((first, count, steps))
+                placements += steps
+                transforms += [mesh.instances[k] for k in usable]
+                mesh_index = next(i for i, m in enumerate(self._meshes) if m is mesh)
+                frame_rows.append((mesh_index, usable))
+            first += count
+        self._prototype_ranges = ranges
+        self._instance_frames = frame_rows
+        self.instance_count = len(transforms)
+        self.instance_transforms = np.ascontiguousarray(np.reshape(transforms, (-1, 3, 4)), dtype=np.float64)
+        normals = np.zeros((max(self.instance_count, 1), 3, 3))
+        if self.instance_count:  # batched: one LAPACK call per instance is slow (ms each)
+            linear = self.instance_transforms[:, :, :3]
+            normals[:] = np.linalg.inv(linear).transpose(0, 2, 1)
+        self.instance_normals = normals
+        # moving instances: decomposed steps per instance (instance_motion.py)
+        self.instance_steps, self.instance_motion = motion_table(placements)
+        self.has_motion = bool(np.any(self.instance_steps > 1)) or self.has_deformation
+
+    def _world_bounds(self):
+        """World-space bounds of the world triangles and of every instance's box corners (at
+        every motion step)."""
+        n_world = self.world_triangle_count
+        points = []
+        if n_world:
+            used = np.zeros(len(self.vertices), bool)
+            used[self.triangles[:n_world].reshape(-1)] = True
+            world = self.vertices[used]
+            points.append(np.stack([world.min(axis=0), world.max(axis=0)]).astype(np.float64))
+        for first, count, placements in self._prototype_ranges:
+            corners = self.vertices[np.unique(self.triangles[first:first + count])].astype(np.float64)
+            lo, hi = corners.min(axis=0), corners.max(axis=0)
+            box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+            steps = np.concatenate(placements)
+            points.append(np.einsum("sij,bj->sbi", steps[:, :, :3], box).reshape(-1, 3)
+                          + np.repeat(steps[:, :, 3], len(box), axis=0))
+        if not points:
+            return np.zeros(3), np.zeros(3)
+        points = np.concatenate(points)
+        return points.min(axis=0), points.max(axis=0)
 
     def corner_attributes(self, names) -> tuple:
         """(T, 3, C) float32 per-corner values of the named attributes for every kept triangle, and
@@ -118,13 +249,24 @@ class Accelerator:
         return table, channels
 
     def mesh_frames(self) -> np.ndarray:
-        """(n_meshes, 2, 3, 4) world -> object and object -> Generated maps per mesh (Mesh.frame)."""
+        """(n_meshes + instance_count, 2, 3, 4) world -> object and object -> Generated maps per
+        mesh (Mesh.frame), then per instance (its mesh's frame after world -> prototype): a hit's
+        row is mesh_ids[prim], or instance_frame_base + instance for an instanced hit."""
         if not self._meshes:
             return np.zeros((1, 2, 3, 4))
-        return np.ascontiguousarray(np.stack([m.frame() for m in self._meshes]), dtype=np.float64)
+        frames = [m.frame() for m in self._meshes]
+        placed = [_instance_frames(frames[mesh_index], self._meshes[mesh_index].instances[ks])
+                  for mesh_index, ks in self._instance_frames]
+        return np.ascontiguousarray(np.concatenate([np.stack(frames)] + placed), dtype=np.float64)
+
+    @property
+    def instance_frame_base(self) -> int:
+        """Row of instance 0 in mesh_frames()."""
+        return len(self._meshes)
 
     def triangle_corners(self, index) -> np.ndarray:
-        """(k, 3, 3) float64 corner positions of the triangles `index`."""
+        """(k, 3, 3) float64 corner positions of the triangles `index` (object space for
+        prototypes' triangles)."""
         return self.vertices[self.triangles[index]].astype(np.float64)
 
     @property
@@ -144,40 +286,89 @@ class Accelerator:
         n = len(origins)
         if self._embree is None or n == 0:
             return Hits(np.full(n, np.inf), np.full(n, MISS, np.int32), np.zeros(n, np.float32),
-                        np.zeros(n, np.float32))
+                        np.zeros(n, np.float32), np.full(n, NO_INSTANCE, np.int32))
         o = np.ascontiguousarray(origins, dtype=np.float32)
         d = np.ascontiguousarray(directions, dtype=np.float32)
-        dists = None if tmax is None else np.minimum(tmax, 1e30).astype(np.float32)
-        res = self._embree.run(o, d, dists=dists, output=1)
-        prim = res["primID"].astype(np.int32, copy=False)
-        t = res["tfar"].astype(np.float64)
+        t32 = np.full(n, 1e37, np.float32)
+        if tmax is not None:
+            t32[:] = np.minimum(tmax, 1e30)
+        t, prim, inst, u, v = self._embree.intersect(o, d, t32)
+        t = t.astype(np.float64)
         t[prim < 0] = np.inf
-        return Hits(t, prim, res["u"], res["v"])
+        return Hits(t, prim, u, v, inst)
 
-    def intersect_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray) -> Hits:
+    def intersect_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray, times=None) -> Hits:
         """Closest hits for contiguous float32 rays as the compiled stages use them: t is Embree's
-        float32 tfar (meaningless on a miss: check prim >= 0), no conversions."""
+        float32 tfar (meaningless on a miss: check prim >= 0), no conversions. times: the rays'
+        shutter times in [0, 1] (None: 0; only moving geometry reads them)."""
         n = len(o32)
         if self._embree is None or n == 0:
-            return Hits(t32.copy(), np.full(n, MISS, np.int32), np.zeros(n, np.float32), np.zeros(n, np.float32))
-        res = self._embree.run(o32, d32, dists=t32.copy(), output=1)
-        return Hits(res["tfar"], res["primID"].astype(np.int32, copy=False), res["u"], res["v"])
+            return Hits(t32.copy(), np.full(n, MISS, np.int32), np.zeros(n, np.float32), np.zeros(n, np.float32),
+                        np.full(n, NO_INSTANCE, np.int32))
+        t, prim, inst, u, v = self._embree.intersect(o32, d32, t32, times)
+        return Hits(t, prim, u, v, inst)
 
-    def occluded_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray) -> np.ndarray:
-        """True where something blocks the contiguous float32 ray before t32."""
+    def occluded_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray, times=None) -> np.ndarray:
+        """True where something blocks the contiguous float32 ray before t32 (at `times`)."""
         if self._embree is None or len(o32) == 0:
             return np.zeros(len(o32), dtype=bool)
-        return self._embree.run(o32, d32, dists=t32.copy(), query="OCCLUDED") >= 0
+        return self._embree.occluded(o32, d32, t32, times)
 
+    def geometric_normals(self, prim: np.ndarray, inst=None) -> np.ndarray:
+        """Outward unit geometric normals of hits, in world space."""
+        return _unit(self._placed(self.normals[prim], inst))
 
-    def shading_normals(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Interpolated smooth normals where the mesh has them, else geometric normals."""
+    def shading_normals(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray, inst=None) -> np.ndarray:
+        """Interpolated smooth normals where the mesh has them, else geometric normals (world
+        space: instanced hits through their instance's normal map)."""
         if not self.has_smooth:
-            return self.normals[prim]
+            return self.geometric_normals(prim, inst)
         c = self.corner_normals[prim]
         w0 = (1.0 - u - v)[:, None]
         n = c[:, 0] * w0 + c[:, 1] * u[:, None] + c[:, 2] * v[:, None]
-        return n / np.maximum(np.linalg.norm(n, axis=1), 1e-30)[:, None]
+        return _unit(self._placed(n, inst))
+
+    def _placed(self, normals: np.ndarray, inst) -> np.ndarray:
+        if inst is None or not self.instance_count:
+            return normals
+        normals = np.array(normals, dtype=np.float64)
+        placed = inst >= 0
+        normals[placed] = np.einsum("kij,kj->ki", self.instance_normals[inst[placed]], normals[placed])
+        return normals
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=1), 1e-30)[:, None]
+
+
+def _must_flatten(mesh: Mesh, materials) -> bool:
+    """Instanced meshes traced as world copies: emitters (the light table samples world
+    triangles), medium boundaries (volume stacks walk world triangles) and Bump nodes (the bump
+    offsets move barycentrics over world-space corners, surface_programs._bump_inputs)."""
+    if materials is None or not len(mesh.material_ids):
+        return False
+    used = np.unique(mesh.material_ids)
+    return any(materials[i].is_emissive or materials[i].medium >= 0 or _has_bump(materials[i])
+               for i in used if 0 <= i < len(materials))
+
+
+def _has_bump(material) -> bool:
+    program = getattr(material, "surface_program", None)
+    return program is not None and int(program.bump_offsets) >= 0
+
+
+def _instance_frames(frame: np.ndarray, transforms: np.ndarray) -> np.ndarray:
+    """(K, 2, 3, 4): a mesh frame seen from world space through K object -> world instance
+    transforms: world -> object = (prototype -> object frame) o (world -> prototype)."""
+    inverse = np.linalg.inv(transforms[:, :, :3])
+    placed = np.repeat(np.asarray(frame, np.float64)[None], len(transforms), axis=0)
+    placed[:, 0, :, :3] = frame[0, :, :3] @ inverse
+    placed[:, 0, :, 3] = frame[0, :, 3] - np.einsum("kij,kj->ki", placed[:, 0, :, :3], transforms[:, :, 3])
+    return placed
+
+
+def _kept(values: np.ndarray, keep) -> np.ndarray:
+    return values if keep is None else values[keep]
 
 
 def _joined(arrays: list, dtype) -> np.ndarray:

@@ -73,6 +73,12 @@ def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable) -> pk.Scen
         corner_normals=np.ascontiguousarray(accel.corner_normals if accel.has_smooth else np.zeros((0, 3, 3)),
                                             dtype=np.float32),
         has_smooth=bool(accel.has_smooth),
+        inst_normal=np.ascontiguousarray(accel.instance_normals, dtype=np.float64),
+        inst_frame_base=int(accel.instance_frame_base),
+        inst_steps=np.ascontiguousarray(accel.instance_steps, dtype=np.int64),
+        inst_motion=np.ascontiguousarray(accel.instance_motion, dtype=np.float64), has_motion=bool(accel.has_motion),
+        has_deformation=bool(accel.has_deformation), deform_rows=accel.deform_rows,
+        deform_corners=accel.deform_corners, deform_normals=accel.deform_normals,
         tri_volume=np.ascontiguousarray(media.tri_volume, dtype=np.int32),
         vol_sigma_s=per_volume(media.sigma_s, (n_vol, 3)), vol_sigma_a=per_volume(media.sigma_a, (n_vol, 3)),
         vol_emission=per_volume(media.emission, (n_vol, 3)), vol_g=per_volume(media.g, n_vol),
@@ -107,7 +113,7 @@ class Integrator:
     def __init__(self, scene: Scene):
         self.scene = scene
         self.settings = scene.settings
-        self.accel = Accelerator(scene.meshes)
+        self.accel = Accelerator(scene.meshes, scene.materials)
         self.lights = LightSet(scene, self.accel)
         self.media = MediaTable(scene, self.accel)
         self.camera = CameraModel(scene.camera, scene.film)
@@ -121,7 +127,7 @@ class Integrator:
         self.grids = [grid for _, grid in self.media.grid_volumes]
         # shadow rays step through null boundaries and transparent surfaces (closest hits)
         self.has_null = bool(self.tables.tri_null.any() or self.tables.tri_transparent.any())
-        self.warnings = self.lights.warnings + self.media.warnings
+        self.warnings = self.accel.warnings + self.lights.warnings + self.media.warnings
         # Each path starts in the volume stack of its ray's origin, on the near clip plane (Cycles
         # kernel/integrator/intersect_volume_stack.h integrator_volume_stack_init walks from the
         # camera ray's P, which kernel/camera/camera.h has moved to the near clip). Perspective
@@ -199,11 +205,11 @@ class Integrator:
         while n:
             if cancel is not None and cancel():
                 raise Cancelled()
-            hits = self.accel.intersect_raw(o32[:n], d32[:n], t32[:n])
+            hits = self.accel.intersect_raw(o32[:n], d32[:n], t32[:n], self._times(F, pk.TIME, n))
             stats["rays"] += n
             m = pk.shade(self.tables, self.lights.tables, grid_tables, self.surface_nodes, self.bsdf_tables,
                          buffers.closures, self.surface_programs, buffers.surface, n, iteration, F, I, K, C, hits.t,
-                         hits.prim, hits.u, hits.v, L, alive, Q, counter, o32, d32, t32)
+                         hits.prim, hits.inst, hits.u, hits.v, L, alive, Q, counter, o32, d32, t32)
             self._trace_shadows(grid_tables, buffers, Q, m, margin, L, stats, iteration, cancel)
             n = pk.compact(F, I, K, C, n, alive, o32, d32, t32)
             iteration += 1
@@ -215,12 +221,16 @@ class Integrator:
                                    dtype=np.int64)
         return L[:, :3], stats
 
+    def _times(self, fields: np.ndarray, column: int, n: int):
+        """The shutter times of n queued rays for Embree (None when nothing in the scene moves)."""
+        return fields[:n, column].astype(np.float32) if self.accel.has_motion else None
+
     def _trace_shadows(self, grid_tables, buffers, Q, m, margin, L, stats, iteration, cancel=None):
         """Transmittance of queued shadow rays, added to L where the light is reached."""
         if not m:
             return
         if not self.has_null:
-            blocked = self.accel.occluded_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m])
+            blocked = self.accel.occluded_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m], self._times(Q.F, pk.S_TIME, m))
             stats["shadow_rays"] += m
             pk.shadow_unoccluded(Q.F, Q.I, m, blocked, margin, L)
             return
@@ -229,10 +239,10 @@ class Integrator:
                 return
             if cancel is not None and cancel():
                 raise Cancelled()
-            hits = self.accel.intersect_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m])
+            hits = self.accel.intersect_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m], self._times(Q.F, pk.S_TIME, m))
             stats["shadow_rays"] += m
             m = pk.shadow_step(self.tables, grid_tables, self.surface_nodes, self.bsdf_tables, buffers.closures,
-                               self.surface_programs, buffers.surface, Q, m, hits.t, hits.prim, hits.u, hits.v,
+                               self.surface_programs, buffers.surface, Q, m, hits.t, hits.prim, hits.inst, hits.u, hits.v,
                                margin, L, iteration, step)
         # rays still crossing boundaries after the limit count as blocked (Cycles VOLUME_BOUNDS_MAX)
 

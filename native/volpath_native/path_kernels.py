@@ -43,20 +43,22 @@ from .media import (channel_probabilities1, distance_pdf1, emission_integral1, e
 from .mis import mis_weight, power_heuristic
 from .phase import hg_eval1, hg_sample1
 from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, LENS_U_DIM, LENS_V_DIM, SHUTTER_TIME_DIM, path_key1, uniform1
+from .instance_motion import normal_map1
 from .surface_programs import has_program_emission, program_emission, shade_surface_program
 
 # F columns
 O, D, BETA, PREV = 0, 3, 6, 9
 TMAX, PREV_PDF, TRAVELLED, LEAD = 12, 13, 14, 15
 SS, ST, EM, G = 16, 19, 22, 25
-NF = 26
+TIME = 26  # the path's shutter time in [0, 1]: its camera ray's, inherited by every later ray
+NF = 27
 # I columns: path id, bounce counters (Cycles' path_state: total, diffuse, volume, glossy,
 # transmission, transparent), null-boundary crossings, "terminate after transparent"
 PID, BOUNCE, DIFFUSE, VOLUME, BOUNDS, TAT, GLOSSY, TRANSMISSION, TRANSPARENT = range(9)
 NI = 9
 # shadow queue SF columns; SI columns: path id, purpose (which NEE queued it); SK: path key
-S_O, S_D, S_REMAINING, S_CONTRIB, S_ST, S_LEAD = 0, 3, 6, 7, 10, 13
-NSF = 14
+S_O, S_D, S_REMAINING, S_CONTRIB, S_ST, S_LEAD, S_TIME = 0, 3, 6, 7, 10, 13, 14
+NSF = 15
 SI_PID, SI_PURPOSE = 0, 1
 NSI = 2
 # Grid tracking draws from its own streams of dimensions (grid_kernels): one per iteration,
@@ -77,6 +79,8 @@ ShadowQueue = namedtuple("ShadowQueue", ["F", "I", "K", "C", "o32", "d32", "t32"
 # Everything the stages read about the scene (built once per scene by integrator.py).
 SceneTables = namedtuple("SceneTables", [
     "tri_null", "tri_emissive", "tri_material", "tri_transparent", "normals", "corner_normals", "has_smooth", "tri_volume",
+    "inst_normal", "inst_frame_base", "inst_steps", "inst_motion", "has_motion",
+    "has_deformation", "deform_rows", "deform_corners", "deform_normals",
     "vol_sigma_s", "vol_sigma_a", "vol_emission", "vol_g", "vol_is_grid",
     "world_sigma_s", "world_sigma_a", "world_emission", "world_g",
     "phase_g", "vol_lobe_sigma", "world_lobe_sigma", "mixed_phase",
@@ -239,6 +243,7 @@ def start_paths(S, cam, filter_inverse, seed_key, crop, full_width, pixel, sampl
         _set3(F, p, BETA, (1.0, 1.0, 1.0))
         _set3(F, p, PREV, origin)
         F[p, TMAX] = tmax
+        F[p, TIME] = time
         for j in range(I.shape[1]):
             I[p, j] = 0
         I[p, PID] = p
@@ -353,8 +358,9 @@ def _write_ray(A, row, origin, direction, length, o32, d32, t32, out):
 
 
 @inline_stage_kernel
-def _push_shadow(Q, C, K, p, n_shadow, origin, wi, dist, contrib, sigma_t, margin, pid, purpose):
+def _push_shadow(Q, C, K, p, n_shadow, origin, wi, dist, contrib, sigma_t, margin, pid, purpose, time):
     q = n_shadow
+    Q.F[q, S_TIME] = time
     Q.K[q] = K[p]
     Q.I[q, SI_PURPOSE] = purpose
     _set3(Q.F, q, S_O, origin)
@@ -407,12 +413,13 @@ def _russian_roulette(S, F, I, K, p, iteration):
 # The path stage: everything between a closest-hit query and the next one
 # ---------------------------------------------------------------------------------------------
 @stage_kernel
-def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_prim, hit_u, hit_v, L, alive, Q,
-          stats, o32, d32, t32):
+def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_prim, hit_inst, hit_u, hit_v, L, alive,
+          Q, stats, o32, d32, t32):
     """Advance paths 0..n-1 by one segment: medium (emission, NEE, free flight), lamps crossed,
     escape, volume scattering or surface interaction (SN: the materials' BSDF nodes, BT: BSDF
     lookup tables, CB: this thread's closure scratch, SP / SPS: surface programs and this thread's
-    scratch for them, surface_programs.py). Shadow rays go to the queue Q; returns its
+    scratch for them, surface_programs.py). hit_inst: the instance of each hit (-1: a world
+    triangle; accel.Accelerator). Shadow rays go to the queue Q; returns its
     length. The next rays of live paths are written to o32, d32, t32. stats: [vertices]
     accumulated."""
     eps = S.epsilon
@@ -540,8 +547,8 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
             _scatter_to(S, F, I, p, x, wo, pdf, VOLUME, S.volume_bounces)
             alive[p] = _russian_roulette(S, F, I, K, p, iteration)
         else:
-            alive[p], n_shadow = _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, hit_t[p],
-                                          hit_u[p], hit_v[p], L, Q, n_shadow, margin, stats)
+            alive[p], n_shadow = _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, hit_inst[p],
+                                          hit_t[p], hit_u[p], hit_v[p], L, Q, n_shadow, margin, stats)
         if alive[p]:
             alive[p] = F[p, BETA] > 0.0 or F[p, BETA + 1] > 0.0 or F[p, BETA + 2] > 0.0
         if alive[p]:
@@ -600,7 +607,7 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
     contrib = _scale3(_mul3(_mul3(_mul3(beta, tr), scattering), value), w / pdf_t)
     if _max3(contrib) > 0.0:
         n_shadow = _push_shadow(Q, C, K, p, n_shadow, x, wi, dist, contrib, st, margin,
-                                I[p, PID], P_SHADOW_MEDIUM)
+                                I[p, PID], P_SHADOW_MEDIUM, F[p, TIME])
     return n_shadow
 
 
@@ -626,7 +633,71 @@ def _advance_through(S, F, C, p, prim, front, t, d):
 
 
 @inline_stage_kernel
-def _shading_normal(S, prim, hu, hv, n_face):
+def _placed_normal(S, inst, time, x, y, z):
+    """An object-space normal of an instanced hit in world space (unnormalised): through accel's
+    instance_normals (inverse transpose), or for a moving
+    instance through its transform at the ray's time (instance_motion.normal_map1). World-space
+    hits (inst < 0) keep theirs."""
+    if inst < 0:
+        return x, y, z
+    if S.inst_steps[inst] > 1:
+        return normal_map1(S.inst_motion, S.inst_steps[inst], inst, time, x, y, z)
+    m = S.inst_normal
+    return (m[inst, 0, 0] * x + m[inst, 0, 1] * y + m[inst, 0, 2] * z,
+            m[inst, 1, 0] * x + m[inst, 1, 1] * y + m[inst, 1, 2] * z,
+            m[inst, 2, 0] * x + m[inst, 2, 1] * y + m[inst, 2, 2] * z)
+
+
+@inline_stage_kernel
+def _geometric_normal(S, prim, inst, time):
+    """The outward unit geometric normal of triangle prim (of instance inst) in world space at
+    shutter time `time`."""
+    x, y, z = S.normals[prim, 0], S.normals[prim, 1], S.normals[prim, 2]
+    if S.has_deformation and S.deform_rows[prim, 0] >= 0:
+        x, y, z = _deformed_normal(S, prim, time)
+    if inst < 0:
+        return x, y, z
+    x, y, z = _placed_normal(S, inst, time, x, y, z)
+    length = max(np.sqrt(x * x + y * y + z * z), 1e-30)
+    return x / length, y / length, z / length
+
+
+@inline_stage_kernel
+def _deform_step(S, prim, time):
+    """(row of the step before `time`, row of the step after, weight of the latter) of a deforming
+    triangle (accel's deform_rows; Cycles geom/motion_triangle.h motion_triangle_vertices)."""
+    row, steps, stride = S.deform_rows[prim, 0], S.deform_rows[prim, 1], S.deform_rows[prim, 2]
+    maxstep = steps - 1
+    step = min(max(np.int64(time * maxstep), 0), maxstep - 1)
+    t = min(max(time * maxstep - step, 0.0), 1.0)
+    return row + step * stride, row + (step + 1) * stride, t
+
+
+@inline_stage_kernel
+def _deformed_normal(S, prim, time):
+    """Unit geometric normal of a deforming triangle at `time`: the cross product of its corners
+    interpolated between the steps (outward for counter-clockwise corners)."""
+    a, b, t = _deform_step(S, prim, time)
+    c = S.deform_corners
+    p0x, p0y, p0z = (1.0 - t) * c[a, 0, 0] + t * c[b, 0, 0], (1.0 - t) * c[a, 0, 1] + t * c[b, 0, 1], \
+        (1.0 - t) * c[a, 0, 2] + t * c[b, 0, 2]
+    e1x, e1y, e1z = (1.0 - t) * c[a, 1, 0] + t * c[b, 1, 0] - p0x, (1.0 - t) * c[a, 1, 1] + t * c[b, 1, 1] - p0y, \
+        (1.0 - t) * c[a, 1, 2] + t * c[b, 1, 2] - p0z
+    e2x, e2y, e2z = (1.0 - t) * c[a, 2, 0] + t * c[b, 2, 0] - p0x, (1.0 - t) * c[a, 2, 1] + t * c[b, 2, 1] - p0y, \
+        (1.0 - t) * c[a, 2, 2] + t * c[b, 2, 2] - p0z
+    x, y, z = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    length = max(np.sqrt(x * x + y * y + z * z), 1e-30)
+    return x / length, y / length, z / length
+
+
+@inline_stage_kernel
+def _frame_row(S, SP, prim, inst):
+    """The hit's object frame in SP.frames: its mesh's, or its instance's."""
+    return SP.tri_mesh[prim] if inst < 0 else S.inst_frame_base + inst
+
+
+@inline_stage_kernel
+def _shading_normal(S, prim, inst, time, hu, hv, n_face):
     """Interpolated (smooth) normal at barycentrics (hu, hv), flipped to n_face's side."""
     if not S.has_smooth:
         return n_face
@@ -635,6 +706,16 @@ def _shading_normal(S, prim, hu, hv, n_face):
     sx = cn[prim, 0, 0] * w0 + cn[prim, 1, 0] * hu + cn[prim, 2, 0] * hv
     sy = cn[prim, 0, 1] * w0 + cn[prim, 1, 1] * hu + cn[prim, 2, 1] * hv
     sz = cn[prim, 0, 2] * w0 + cn[prim, 1, 2] * hu + cn[prim, 2, 2] * hv
+    if S.has_deformation and S.deform_rows[prim, 3] == 1:  # corner normals at the ray's time
+        a, b, t = _deform_step(S, prim, time)
+        dn = S.deform_normals
+        sx = (1.0 - t) * (dn[a, 0, 0] * w0 + dn[a, 1, 0] * hu + dn[a, 2, 0] * hv) \
+            + t * (dn[b, 0, 0] * w0 + dn[b, 1, 0] * hu + dn[b, 2, 0] * hv)
+        sy = (1.0 - t) * (dn[a, 0, 1] * w0 + dn[a, 1, 1] * hu + dn[a, 2, 1] * hv) \
+            + t * (dn[b, 0, 1] * w0 + dn[b, 1, 1] * hu + dn[b, 2, 1] * hv)
+        sz = (1.0 - t) * (dn[a, 0, 2] * w0 + dn[a, 1, 2] * hu + dn[a, 2, 2] * hv) \
+            + t * (dn[b, 0, 2] * w0 + dn[b, 1, 2] * hu + dn[b, 2, 2] * hv)
+    sx, sy, sz = _placed_normal(S, inst, time, sx, sy, sz)
     length = max(np.sqrt(sx * sx + sy * sy + sz * sz), 1e-30)
     flip = -1.0 if (sx * n_face[0] + sy * n_face[1] + sz * n_face[2]) < 0.0 else 1.0
     return sx / length * flip, sy / length * flip, sz / length * flip
@@ -660,20 +741,23 @@ def _textured_light_value(S, T, SP, SPS, row, u1, u2, w, value):
     wi = (-w[0], -w[1], -w[2])  # from the emitter towards the shading point
     front = _dot3(wi, ng) > 0.0
     n_face = _scale3(ng, 1.0 if front else -1.0)
-    ns = _shading_normal(S, prim, hu, hv, n_face)
-    e = program_emission(SP, SPS, material, prim, hu, hv, y[0], y[1], y[2], ns, n_face, wi, not front)
+    # emitters are traced as world triangles (accel._must_flatten): no instance; their static normals
+    ns = _shading_normal(S, prim, -1, 0.5, hu, hv, n_face)
+    e = program_emission(SP, SPS, material, prim, SP.tri_mesh[prim], hu, hv, y[0], y[1], y[2], ns, n_face, wi,
+                         not front)
     return _mul3(value, e)
 
 
 @inline_stage_kernel
-def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, t, hu, hv, L, Q, n_shadow, margin, stats):
+def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t, hu, hv, L, Q, n_shadow, margin,
+             stats):
     """Shade a surface hit with its material's closures (bsdfs.closures); returns (continues,
     shadow queue length). Cycles kernel/integrator/shade_surface.h: emission, light sampling
     with MIS, BSDF sampling; a transmission enters/leaves the material's volume
     (volume_stack_enter_exit), a transparent sample continues straight."""
     eps = S.epsilon
     d = _get3(F, p, D)
-    ng = (S.normals[prim, 0], S.normals[prim, 1], S.normals[prim, 2])
+    ng = _geometric_normal(S, prim, inst, F[p, TIME])
     front = _dot3(d, ng) < 0.0
     if S.tri_null[prim]:
         # null boundary: cross it, update the volume stack, keep the direction
@@ -686,16 +770,17 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, t, hu, h
     pb = (F[p, O] + d[0] * t, F[p, O + 1] + d[1] * t, F[p, O + 2] + d[2] * t)
     sign = 1.0 if front else -1.0
     n_face = _scale3(ng, sign)  # geometric normal on the viewer's side
-    ns = _shading_normal(S, prim, hu, hv, n_face)
+    ns = _shading_normal(S, prim, inst, F[p, TIME], hu, hv, n_face)
     wi_view = (-d[0], -d[1], -d[2])
+    frame = _frame_row(S, SP, prim, inst)
     # emission (two-sided by default), MIS against the light-sampling pdf
     if S.tri_emissive[prim]:
         prev = _get3(F, p, PREV)
         r0, r1, r2, lpdf = triangle_emission(T, prim, prev[0], prev[1], prev[2], d[0], d[1], d[2],
                                              F[p, TRAVELLED] + t, front)
         if has_program_emission(SP, S.tri_material[prim]):  # textured: unit strength x the program's
-            e = program_emission(SP, SPS, S.tri_material[prim], prim, hu, hv, pb[0], pb[1], pb[2], ns, n_face,
-                                 wi_view, not front)
+            e = program_emission(SP, SPS, S.tri_material[prim], prim, frame, hu, hv, pb[0], pb[1], pb[2], ns,
+                                 n_face, wi_view, not front)
             r0, r1, r2 = r0 * e[0], r1 * e[1], r2 * e[2]
         _add_radiance(L, pid, _scale3(_mul3(beta, (r0, r1, r2)), mis_weight(F[p, PREV_PDF], lpdf)))
     if I[p, TAT] != 0:  # terminate-after-transparent paths end here
@@ -703,8 +788,8 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, t, hu, h
     nodes, row, n_closure, tangent = SN, S.tri_material[prim], ns, (0.0, 0.0, 0.0)
     if SP.any and SP.mat_program[row] >= 0:
         # textured inputs: this hit's node values in SPS.nodes (material 0 there), normal, tangent
-        n_closure, tangent = shade_surface_program(SP, SPS, SN, row, prim, hu, hv, pb[0], pb[1], pb[2], ns, n_face,
-                                                   wi_view, not front)
+        n_closure, tangent = shade_surface_program(SP, SPS, SN, row, prim, frame, hu, hv, pb[0], pb[1], pb[2], ns,
+                                                   n_face, wi_view, not front)
         nodes, row = SPS.nodes, 0
     count = setup_surface_tangent(nodes, BT, row, wi_view, n_closure, n_face, not front, tangent, CB)
     if count == 0:  # black: absorbs everything
@@ -725,7 +810,7 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, t, hu, h
                 transmits = _dot3(wi, n_face) < 0.0
                 q = n_shadow
                 n_shadow = _push_shadow(Q, C, K, p, n_shadow, below if transmits else above, wi, dist, contrib,
-                                        _get3(F, p, ST), margin, pid, P_SHADOW_SURFACE)
+                                        _get3(F, p, ST), margin, pid, P_SHADOW_SURFACE, F[p, TIME])
                 if transmits and S.tri_volume[prim] >= 0:  # the shadow ray crosses into / out of the volume
                     cross_boundary(S, Q.C, q, prim, front)
                     _set3(Q.F, q, S_ST, stack_sigma_t(S, Q.C, q))
@@ -896,7 +981,7 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
         contrib = _mul3(contrib, grids_transmittance(S, GR, C, p, o, d, t, K[p],
                                                      grid_stream(iteration, P_NEE_SEGMENT, 0, 0)))
         n_shadow = _push_shadow(Q, C, K, p, n_shadow, x, wi, dist, contrib, st, margin,
-                                I[p, PID], P_SHADOW_MEDIUM)
+                                I[p, PID], P_SHADOW_MEDIUM, F[p, TIME])
     return n_shadow
 
 
@@ -916,7 +1001,8 @@ def shadow_unoccluded(SF, SI, m, blocked, margin, L):
 
 
 @stage_kernel
-def shadow_step(S, GR, SN, BT, CB, SP, SPS, Q, m, hit_t, hit_prim, hit_u, hit_v, margin, L, iteration, step):
+def shadow_step(S, GR, SN, BT, CB, SP, SPS, Q, m, hit_t, hit_prim, hit_inst, hit_u, hit_v, margin, L, iteration,
+                step):
     """One closest-hit step of shadow rays through null boundaries and transparent surfaces:
     attenuate the segment, stop at opaque geometry (T = 0) or at the light (add contrib x T),
     cross null boundaries (the volume stack and the segment's sigma_t change) and transparent
@@ -939,19 +1025,20 @@ def shadow_step(S, GR, SN, BT, CB, SP, SPS, Q, m, hit_t, hit_prim, hit_u, hit_v,
         d = _get3(SF, q, S_D)
         front = False
         if hit:
-            ng = (S.normals[prim, 0], S.normals[prim, 1], S.normals[prim, 2])
+            inst = hit_inst[q]
+            ng = _geometric_normal(S, prim, inst, SF[q, S_TIME])
             front = _dot3(d, ng) < 0.0
             if not S.tri_null[prim]:
                 n_face = _scale3(ng, 1.0 if front else -1.0)
                 nodes, row, n_closure, tangent = SN, S.tri_material[prim], n_face, (0.0, 0.0, 0.0)
                 wi = (-d[0], -d[1], -d[2])
                 if SP.any and SP.mat_program[row] >= 0:  # textured alpha / transparency
-                    ns = _shading_normal(S, prim, hit_u[q], hit_v[q], n_face)
+                    ns = _shading_normal(S, prim, inst, SF[q, S_TIME], hit_u[q], hit_v[q], n_face)
                     x = _get3(SF, q, S_O)
                     t_hit = hit_t[q]
                     n_closure, tangent = shade_surface_program(
-                        SP, SPS, SN, row, prim, hit_u[q], hit_v[q], x[0] + d[0] * t_hit, x[1] + d[1] * t_hit,
-                        x[2] + d[2] * t_hit, ns, n_face, wi, not front)
+                        SP, SPS, SN, row, prim, _frame_row(S, SP, prim, inst), hit_u[q], hit_v[q],
+                        x[0] + d[0] * t_hit, x[1] + d[1] * t_hit, x[2] + d[2] * t_hit, ns, n_face, wi, not front)
                     nodes, row = SPS.nodes, 0
                 count = setup_surface_tangent(nodes, BT, row, wi, n_closure, n_face, not front, tangent, CB)
                 tr = _mul3(tr, surface_transparency(CB, count))

@@ -215,6 +215,31 @@ def triangle_cross(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return np.cross(e1, e2)
 
 
+def padded_rows(values: np.ndarray, dtype=np.float32) -> np.ndarray:
+    """values as a contiguous (N, 3) array whose memory extends at least 16 bytes past its end
+    inside the same numpy allocation (Embree reads vertex buffers with 16-byte loads,
+    rtcSetSharedGeometryBuffer): values itself when it already does, else a padded copy."""
+    values = np.ascontiguousarray(values, dtype=dtype).reshape(-1, 3)
+    owner = values
+    while isinstance(owner.base, np.ndarray):
+        owner = owner.base
+    start = owner.__array_interface__["data"][0]
+    end = values.__array_interface__["data"][0] + values.nbytes
+    if owner is not values and owner.flags.c_contiguous and end + 16 <= start + owner.nbytes:
+        return values
+    padded = np.zeros((len(values) + 2, 3), dtype)
+    padded[:len(values)] = values
+    return padded[:len(values)]
+
+
+def _affine_rows(values, name: str, ndim: int) -> np.ndarray:
+    """float64 (..., 3, 4) affine maps of (..., 3, 4) or (..., 4, 4) input with `ndim` dimensions."""
+    values = np.asarray(values, dtype=np.float64)
+    if values.ndim != ndim or values.shape[-2:] not in ((3, 4), (4, 4)):
+        raise SceneError(f"{name}: expected {ndim} dimensions ending in (3, 4) or (4, 4), got shape {values.shape}")
+    return np.ascontiguousarray(values[..., :3, :])
+
+
 def doubled_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """(T,) float64 twice the area of each triangle, in chunks (no (T, 3, 3) float64 temporary)."""
     out = np.empty(len(triangles))
@@ -245,17 +270,20 @@ class Mesh:
 
     Instancing (Cycles' object instancing: one BVH per unique mesh, an instance per object):
     instances: optional (K, 3, 4) float64 object -> world affine maps (rows of a 4x4 without its
-        last row [0 0 0 1]); the mesh's vertices, corner_normals and "tangent:" attributes are
+        last row [0 0 0 1]; (K, 4, 4) is taken too, its last row dropped); the mesh's vertices, corner_normals and "tangent:" attributes are
         then in object space and the mesh appears K times. None (default): the vertices are in
         world space and the mesh appears once (what every exporter wrote before). Memory grows
-        with the unique meshes, not with K. An emissive instanced mesh is expanded into world
-        triangles for light sampling only. The exporter groups depsgraph object instances by
+        with the unique meshes, not with K. An emitting or medium-bounding instanced mesh is
+        expanded into world copies (the light table and volume stacks index world triangles;
+        such a mesh with `motion` renders still, warned). The exporter groups depsgraph object instances by
         their evaluated mesh datablock (collection instances, particle/geometry-nodes instances
         and linked duplicates alike) and fills one Mesh per unique mesh with every
         instance.matrix_world[:3] (float64) here.
     motion: optional (K, S, 3, 4) float64 object -> world of every instance at S >= 2 shutter
         times evenly spaced from the shutter's opening (step 0) to its closing (step S - 1),
-        the same steps as Camera.motion_transforms (Cycles' object motion steps, interpolated
+        the same steps as Camera.motion_transforms (Cycles' object motion steps: S from the
+        object's Motion Blur steps, blender/util.h object_motion_steps, the middle step the
+        frame itself, Object::motion_time spacing them over the shutter; interpolated
         decomposed: quaternion slerp of the rotation, linear scale and translation, as Cycles'
         transform_motion_decompose / Embree's rtcSetGeometryTransformQuaternion). Requires
         `instances` (the transforms at the frame itself: bounds, light sampling, renders without
@@ -283,7 +311,7 @@ class Mesh:
     corner_normal_motion: Optional[np.ndarray] = None
 
     def __post_init__(self):
-        self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float32).reshape(-1, 3)
+        self.vertices = padded_rows(self.vertices)  # Embree shares it (embree.TriangleScene)
         self.triangles = np.ascontiguousarray(self.triangles, dtype=np.int32).reshape(-1, 3)
         self.material_ids = np.ascontiguousarray(self.material_ids, dtype=np.int32).reshape(-1)
         if self.corner_normals is not None:
@@ -297,11 +325,10 @@ class Mesh:
         self.corner_attributes = attributes
         if self.object_frame is not None:
             self.object_frame = np.ascontiguousarray(self.object_frame, dtype=np.float64).reshape(2, 3, 4)
-        if self.instances is not None:
-            self.instances = np.ascontiguousarray(self.instances, dtype=np.float64).reshape(-1, 3, 4)
+        if self.instances is not None:  # 4x4 matrices (Blender's matrix_world) lose their last row
+            self.instances = _affine_rows(self.instances, f"mesh '{self.name}' instances", 3)
         if self.motion is not None:
-            motion = np.ascontiguousarray(self.motion, dtype=np.float64)
-            self.motion = motion.reshape(motion.shape[0], -1, 3, 4) if motion.ndim >= 2 else motion
+            self.motion = _affine_rows(self.motion, f"mesh '{self.name}' motion", 4)
         if self.vertex_motion is not None:
             vertex_motion = np.ascontiguousarray(self.vertex_motion, dtype=np.float32)
             self.vertex_motion = vertex_motion.reshape(vertex_motion.shape[0], -1, 3) if vertex_motion.ndim >= 1 \
@@ -388,13 +415,21 @@ class Mesh:
                     normals = normals[:, ::-1]
             attributes = self.corner_attributes if np.linalg.det(linear) > 0 else \
                 {name: values[:, ::-1] for name, values in self.corner_attributes.items()}
+            vertex_motion = None if self.vertex_motion is None else \
+                (self.vertex_motion.astype(np.float64) @ linear.T + offset).astype(np.float32)
+            normal_motion = None
+            if self.corner_normal_motion is not None:
+                normal_motion = self.corner_normal_motion.astype(np.float64) @ inverse
+                normal_motion /= np.maximum(np.linalg.norm(normal_motion, axis=3, keepdims=True), 1e-30)
+                if np.linalg.det(linear) < 0:
+                    normal_motion = normal_motion[:, :, ::-1]
             frame = np.array(base, dtype=np.float64)
             # world -> object = (prototype -> object frame) o (world -> prototype)
             world_to_proto = np.concatenate([inverse, (-inverse @ offset)[:, None]], axis=1)
             frame[0, :, :3] = base[0, :, :3] @ world_to_proto[:, :3]
             frame[0, :, 3] = base[0, :, :3] @ world_to_proto[:, 3] + base[0, :, 3]
             copies.append(Mesh(f"{self.name}[{k}]", vertices, triangles, self.material_ids, normals, attributes,
-                               frame))
+                               frame, vertex_motion=vertex_motion, corner_normal_motion=normal_motion))
         return copies
 
     def _validate_placement(self, n_tri: int) -> list[str]:

@@ -455,9 +455,9 @@ def _bump_inputs(SP, init, k, prim, hu, hv, px, py, pz, ng):
 
 
 @stage_kernel
-def _run_at_hit(SP, SS, k, prim, hu, hv, px, py, pz, ns, ng, wi, backfacing):
-    """Run program k at a hit: fill the inputs (module docstring, step 1), run; SS.regs holds
-    the result."""
+def _run_at_hit(SP, SS, k, prim, frame, hu, hv, px, py, pz, ns, ng, wi, backfacing):
+    """Run program k at a hit (frame: the hit's row in SP.frames -- its mesh's, SP.tri_mesh[prim],
+    or its instance's): fill the inputs (module docstring, step 1), run; SS.regs holds the result."""
     i0, i1, t0, t1 = SP.prog[k, 2], SP.prog[k, 3], SP.prog[k, 4], SP.prog[k, 5]
     init = SS.init
     n_regs = i1 - i0
@@ -483,17 +483,18 @@ def _run_at_hit(SP, SS, k, prim, hu, hv, px, py, pz, ns, ng, wi, backfacing):
     if SP.prog_bump[k] >= 0:
         _bump_inputs(SP, init, k, prim, hu, hv, px, py, pz, ng)
     run_program(SP.code[SP.prog[k, 0]:SP.prog[k, 1]], init[:n_regs], SP.tables[t0:t1], SS.regs,
-                SP.frames[SP.tri_mesh[prim]], SP.no_grid, SP.no_world_to_index, px, py, pz, SP.images)
+                SP.frames[frame], SP.no_grid, SP.no_world_to_index, px, py, pz, SP.images)
 
 
 @stage_kernel
-def shade_surface_program(SP, SS, SN, material, prim, hu, hv, px, py, pz, ns, ng, wi, backfacing):
-    """Run material `material`'s program at a hit (triangle prim, barycentrics hu, hv, point p,
+def shade_surface_program(SP, SS, SN, material, prim, frame, hu, hv, px, py, pz, ns, ng, wi, backfacing):
+    """Run material `material`'s program at a hit (triangle prim, its row `frame` in SP.frames --
+    its mesh's SP.tri_mesh[prim] or its instance's (accel.mesh_frames) --, barycentrics hu, hv, point p,
     shading normal ns and geometric normal ng on the viewer's side, wi towards the viewer) and
     write the material's nodes with this hit's inputs into SS.nodes (its material 0). Returns the
     closures' normal and tangent ((0, 0, 0): none)."""
     k = SP.mat_program[material]
-    _run_at_hit(SP, SS, k, prim, hu, hv, px, py, pz, ns, ng, wi, backfacing)
+    _run_at_hit(SP, SS, k, prim, frame, hu, hv, px, py, pz, ns, ng, wi, backfacing)
     regs = SS.regs
     # the material's rows, then this hit's values
     D = SS.nodes
@@ -530,12 +531,12 @@ def has_program_emission(SP, material):
 
 
 @stage_kernel
-def program_emission(SP, SS, material, prim, hu, hv, px, py, pz, ns, ng, wi, backfacing):
+def program_emission(SP, SS, material, prim, frame, hu, hv, px, py, pz, ns, ng, wi, backfacing):
     """The emitted radiance of material `material` at a point of triangle prim (arguments as
     shade_surface_program); negative or non-finite channels read as 0 (Cycles' emission
     closure keeps the weight as given; a negative emitter would break light sampling here)."""
     k = SP.mat_program[material]
-    _run_at_hit(SP, SS, k, prim, hu, hv, px, py, pz, ns, ng, wi, backfacing)
+    _run_at_hit(SP, SS, k, prim, frame, hu, hv, px, py, pz, ns, ng, wi, backfacing)
     r = SP.prog_emission[k]
     regs = SS.regs
     return (max(_finite(regs[r]), 0.0), max(_finite(regs[r + 1]), 0.0), max(_finite(regs[r + 2]), 0.0))

@@ -166,9 +166,9 @@ class _QueryRecorder:
         self.accel.intersect_raw, self.accel.occluded_raw = self.closest, self.occluded
 
     def _recording(self, query):
-        def recorded(o, d, t):
+        def recorded(o, d, t, times=None):  # times: shutter times (None when nothing moves)
             self.queries.append((query, o.copy(), d.copy(), t.copy()))
-            return query(o, d, t)
+            return query(o, d, t, times)
         return recorded
 
     @property

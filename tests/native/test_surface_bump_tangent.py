@@ -110,7 +110,7 @@ def test_bump_at_a_hit_is_the_small_footprint_limit(kind):
     ns = _unit(ng + np.array([0.2, 0.1, -0.05]))
     hu, hv = 0.3, 0.25
     p = corners[0] * (1 - hu - hv) + corners[1] * hu + corners[2] * hv
-    normal, tangent = shade_surface_program(tables, scratch, nodes, 0, 0, hu, hv, p[0], p[1], p[2], tuple(ns),
+    normal, tangent = shade_surface_program(tables, scratch, nodes, 0, 0, 0, hu, hv, p[0], p[1], p[2], tuple(ns),
                                             tuple(ng), tuple(ng), False)
     if kind == "position":
         gradient = np.array([0.3, -0.5, 0.2])

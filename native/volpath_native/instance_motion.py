@@ -1,0 +1,88 @@
+"""Moving instances at a ray's shutter time, as Cycles shades them: each motion step decomposed
+(embree/motion.py: rotation quaternion, translation, scale/shear matrix S), interpolated between
+the two steps around the time -- quaternion slerp (normalised lerp when nearly parallel), linear
+translation and S (Cycles util/transform.h transform_motion_array_interpolate, quat_interpolate)
+-- and composed M = R S (transform_compose). The tables are packed per instance; Embree traces the
+same steps (rtcSetGeometryTransformQuaternion)."""
+from __future__ import annotations
+
+import numpy as np
+
+from .embree.motion import decomposed_steps
+from .jit import inline_stage_kernel
+
+QUAT, TRANSLATION, SCALE = 0, 4, 7  # columns of a step in the motion table
+STEP_WIDTH = 16
+
+
+def motion_table(placements: list) -> tuple[np.ndarray, np.ndarray]:
+    """(steps per instance (n,) int64, (n, max steps, 16) float64 decomposed steps) of the
+    instances' (S_k, 3, 4) transforms; a static instance has 1 step (unused by the kernels)."""
+    n = max(len(placements), 1)
+    steps = np.ones(n, np.int64)
+    width = max([len(p) for p in placements] or [1])
+    table = np.zeros((n, width, STEP_WIDTH))
+    for k, transforms in enumerate(placements):
+        steps[k] = len(transforms)
+        if len(transforms) < 2:
+            continue
+        for s, (quaternion, translation, scale) in enumerate(decomposed_steps(transforms)):
+            table[k, s, QUAT:QUAT + 4] = quaternion
+            table[k, s, TRANSLATION:TRANSLATION + 3] = translation
+            table[k, s, SCALE:SCALE + 9] = scale.reshape(-1)
+    return steps, table
+
+
+@inline_stage_kernel
+def transform_at1(table, steps, k, time):
+    """(M row by row as 9 numbers, translation (3,)) of instance k at shutter time in [0, 1]."""
+    maxstep = steps - 1
+    step = min(max(np.int64(time * maxstep), 0), maxstep - 1)
+    t = min(max(time * maxstep - step, 0.0), 1.0)
+    a0, a1, a2, a3 = table[k, step, 0], table[k, step, 1], table[k, step, 2], table[k, step, 3]
+    b0, b1, b2, b3 = table[k, step + 1, 0], table[k, step + 1, 1], table[k, step + 1, 2], table[k, step + 1, 3]
+    cos_theta = a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3
+    if cos_theta > 0.9995:  # quat_interpolate: normalised lerp when nearly parallel
+        x, y, z, w = (1.0 - t) * a0 + t * b0, (1.0 - t) * a1 + t * b1, (1.0 - t) * a2 + t * b2, (1.0 - t) * a3 + t * b3
+        norm = np.sqrt(x * x + y * y + z * z + w * w)
+        x, y, z, w = x / norm, y / norm, z / norm, w / norm
+    else:
+        theta = np.arccos(min(max(cos_theta, -1.0), 1.0))
+        p0, p1, p2, p3 = b0 - a0 * cos_theta, b1 - a1 * cos_theta, b2 - a2 * cos_theta, b3 - a3 * cos_theta
+        norm = np.sqrt(p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3)
+        c, s = np.cos(theta * t), np.sin(theta * t) / norm
+        x, y, z, w = a0 * c + p0 * s, a1 * c + p1 * s, a2 * c + p2 * s, a3 * c + p3 * s
+    r00, r01, r02 = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)
+    r10, r11, r12 = 2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)
+    r20, r21, r22 = 2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)
+    s00 = (1.0 - t) * table[k, step, SCALE + 0] + t * table[k, step + 1, SCALE + 0]
+    s01 = (1.0 - t) * table[k, step, SCALE + 1] + t * table[k, step + 1, SCALE + 1]
+    s02 = (1.0 - t) * table[k, step, SCALE + 2] + t * table[k, step + 1, SCALE + 2]
+    s10 = (1.0 - t) * table[k, step, SCALE + 3] + t * table[k, step + 1, SCALE + 3]
+    s11 = (1.0 - t) * table[k, step, SCALE + 4] + t * table[k, step + 1, SCALE + 4]
+    s12 = (1.0 - t) * table[k, step, SCALE + 5] + t * table[k, step + 1, SCALE + 5]
+    s20 = (1.0 - t) * table[k, step, SCALE + 6] + t * table[k, step + 1, SCALE + 6]
+    s21 = (1.0 - t) * table[k, step, SCALE + 7] + t * table[k, step + 1, SCALE + 7]
+    s22 = (1.0 - t) * table[k, step, SCALE + 8] + t * table[k, step + 1, SCALE + 8]
+    m = (r00 * s00 + r01 * s10 + r02 * s20, r00 * s01 + r01 * s11 + r02 * s21, r00 * s02 + r01 * s12 + r02 * s22,
+         r10 * s00 + r11 * s10 + r12 * s20, r10 * s01 + r11 * s11 + r12 * s21, r10 * s02 + r11 * s12 + r12 * s22,
+         r20 * s00 + r21 * s10 + r22 * s20, r20 * s01 + r21 * s11 + r22 * s21, r20 * s02 + r21 * s12 + r22 * s22)
+    offset = ((1.0 - t) * table[k, step, TRANSLATION] + t * table[k, step + 1, TRANSLATION],
+              (1.0 - t) * table[k, step, TRANSLATION + 1] + t * table[k, step + 1, TRANSLATION + 1],
+              (1.0 - t) * table[k, step, TRANSLATION + 2] + t * table[k, step + 1, TRANSLATION + 2])
+    return m, offset
+
+
+@inline_stage_kernel
+def normal_map1(table, steps, k, time, x, y, z):
+    """Object-space normal (x, y, z) of instance k in world space at `time`, unnormalised:
+    M^-T n as the cofactor matrix of M (= det M M^-T) times the sign of det M (an outward normal
+    stays outward, on mirrored instances too)."""
+    m, _ = transform_at1(table, steps, k, time)
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = m
+    c00, c01, c02 = m11 * m22 - m12 * m21, m12 * m20 - m10 * m22, m10 * m21 - m11 * m20
+    c10, c11, c12 = m02 * m21 - m01 * m22, m00 * m22 - m02 * m20, m01 * m20 - m00 * m21
+    c20, c21, c22 = m01 * m12 - m02 * m11, m02 * m10 - m00 * m12, m00 * m11 - m01 * m10
+    sign = 1.0 if m00 * c00 + m01 * c01 + m02 * c02 >= 0.0 else -1.0  # det M along the first row
+    return (sign * (c00 * x + c01 * y + c02 * z), sign * (c10 * x + c11 * y + c12 * z),
+            sign * (c20 * x + c21 * y + c22 * z))
