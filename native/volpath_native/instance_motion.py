@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .embree.motion import decomposed_steps
-from .jit import inline_stage_kernel
+from .jit import inline_stage_kernel, stage_kernel
 
 QUAT, TRANSLATION, SCALE = 0, 4, 7  # columns of a step in the motion table
 STEP_WIDTH = 16
@@ -73,7 +73,7 @@ def transform_at1(table, steps, k, time):
     return m, offset
 
 
-@inline_stage_kernel
+@stage_kernel  # a call, not inlined: only moving instances pay for this code (the path stage stays small)
 def normal_map1(table, steps, k, time, x, y, z):
     """Object-space normal (x, y, z) of instance k in world space at `time`, unnormalised:
     M^-T n as the cofactor matrix of M (= det M M^-T) times the sign of det M (an outward normal

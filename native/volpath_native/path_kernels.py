@@ -654,7 +654,7 @@ def _geometric_normal(S, prim, inst, time):
     shutter time `time`."""
     x, y, z = S.normals[prim, 0], S.normals[prim, 1], S.normals[prim, 2]
     if S.has_deformation and S.deform_rows[prim, 0] >= 0:
-        x, y, z = _deformed_normal(S, prim, time)
+        x, y, z = deformed_normal1(S.deform_rows, S.deform_corners, prim, time)
     if inst < 0:
         return x, y, z
     x, y, z = _placed_normal(S, inst, time, x, y, z)
@@ -663,22 +663,21 @@ def _geometric_normal(S, prim, inst, time):
 
 
 @inline_stage_kernel
-def _deform_step(S, prim, time):
+def _deform_step(rows, prim, time):
     """(row of the step before `time`, row of the step after, weight of the latter) of a deforming
     triangle (accel's deform_rows; Cycles geom/motion_triangle.h motion_triangle_vertices)."""
-    row, steps, stride = S.deform_rows[prim, 0], S.deform_rows[prim, 1], S.deform_rows[prim, 2]
+    row, steps, stride = rows[prim, 0], rows[prim, 1], rows[prim, 2]
     maxstep = steps - 1
     step = min(max(np.int64(time * maxstep), 0), maxstep - 1)
     t = min(max(time * maxstep - step, 0.0), 1.0)
     return row + step * stride, row + (step + 1) * stride, t
 
 
-@inline_stage_kernel
-def _deformed_normal(S, prim, time):
+@stage_kernel  # calls, not inlined: only deforming meshes pay for this code
+def deformed_normal1(rows, c, prim, time):
     """Unit geometric normal of a deforming triangle at `time`: the cross product of its corners
     interpolated between the steps (outward for counter-clockwise corners)."""
-    a, b, t = _deform_step(S, prim, time)
-    c = S.deform_corners
+    a, b, t = _deform_step(rows, prim, time)
     p0x, p0y, p0z = (1.0 - t) * c[a, 0, 0] + t * c[b, 0, 0], (1.0 - t) * c[a, 0, 1] + t * c[b, 0, 1], \
         (1.0 - t) * c[a, 0, 2] + t * c[b, 0, 2]
     e1x, e1y, e1z = (1.0 - t) * c[a, 1, 0] + t * c[b, 1, 0] - p0x, (1.0 - t) * c[a, 1, 1] + t * c[b, 1, 1] - p0y, \
@@ -688,6 +687,19 @@ def _deformed_normal(S, prim, time):
     x, y, z = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
     length = max(np.sqrt(x * x + y * y + z * z), 1e-30)
     return x / length, y / length, z / length
+
+
+@stage_kernel
+def deformed_shading_normal1(rows, dn, prim, time, w0, hu, hv):
+    """Corner normals of a deforming triangle interpolated to `time`, then to (w0, hu, hv)."""
+    a, b, t = _deform_step(rows, prim, time)
+    sx = (1.0 - t) * (dn[a, 0, 0] * w0 + dn[a, 1, 0] * hu + dn[a, 2, 0] * hv) \
+        + t * (dn[b, 0, 0] * w0 + dn[b, 1, 0] * hu + dn[b, 2, 0] * hv)
+    sy = (1.0 - t) * (dn[a, 0, 1] * w0 + dn[a, 1, 1] * hu + dn[a, 2, 1] * hv) \
+        + t * (dn[b, 0, 1] * w0 + dn[b, 1, 1] * hu + dn[b, 2, 1] * hv)
+    sz = (1.0 - t) * (dn[a, 0, 2] * w0 + dn[a, 1, 2] * hu + dn[a, 2, 2] * hv) \
+        + t * (dn[b, 0, 2] * w0 + dn[b, 1, 2] * hu + dn[b, 2, 2] * hv)
+    return sx, sy, sz
 
 
 @inline_stage_kernel
@@ -707,14 +719,7 @@ def _shading_normal(S, prim, inst, time, hu, hv, n_face):
     sy = cn[prim, 0, 1] * w0 + cn[prim, 1, 1] * hu + cn[prim, 2, 1] * hv
     sz = cn[prim, 0, 2] * w0 + cn[prim, 1, 2] * hu + cn[prim, 2, 2] * hv
     if S.has_deformation and S.deform_rows[prim, 3] == 1:  # corner normals at the ray's time
-        a, b, t = _deform_step(S, prim, time)
-        dn = S.deform_normals
-        sx = (1.0 - t) * (dn[a, 0, 0] * w0 + dn[a, 1, 0] * hu + dn[a, 2, 0] * hv) \
-            + t * (dn[b, 0, 0] * w0 + dn[b, 1, 0] * hu + dn[b, 2, 0] * hv)
-        sy = (1.0 - t) * (dn[a, 0, 1] * w0 + dn[a, 1, 1] * hu + dn[a, 2, 1] * hv) \
-            + t * (dn[b, 0, 1] * w0 + dn[b, 1, 1] * hu + dn[b, 2, 1] * hv)
-        sz = (1.0 - t) * (dn[a, 0, 2] * w0 + dn[a, 1, 2] * hu + dn[a, 2, 2] * hv) \
-            + t * (dn[b, 0, 2] * w0 + dn[b, 1, 2] * hu + dn[b, 2, 2] * hv)
+        sx, sy, sz = deformed_shading_normal1(S.deform_rows, S.deform_normals, prim, time, w0, hu, hv)
     sx, sy, sz = _placed_normal(S, inst, time, sx, sy, sz)
     length = max(np.sqrt(sx * sx + sy * sy + sz * sz), 1e-30)
     flip = -1.0 if (sx * n_face[0] + sy * n_face[1] + sz * n_face[2]) < 0.0 else 1.0
