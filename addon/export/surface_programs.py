@@ -182,6 +182,32 @@ class SurfaceProgramCompiler:
                 self.reporter.warn(f"{self.owner}: node '{node.name}' ({node.bl_idname}): input '{name}' is driven "
                                    "by nodes VolPath does not evaluate for it; the input's own value is used")
 
+    def bind_displacement(self, output) -> None:
+        """The Material Output's Displacement as Cycles' "Bump Only" (C5 scene/shader_graph.cpp
+        ShaderGraph::bump_from_displacement): the displacement vector at the hit and at the two
+        moved points (SurfaceShaderCompiler.shifted, the Bump node's machinery), each dotted with
+        the shading normal into a height, a Bump of Distance 1 and Strength 1 on the shading
+        normal, and that normal set as the material's (SetNormalNode): every later read of the
+        shading normal (BSDFs' default, Geometry, Bump / Normal Map inputs) sees it."""
+        c = self.compiler
+        saved, c._outputs = c._outputs, {}  # Cycles copies the subgraph: the surface reads its own nodes
+        try:
+            centre = c.vector_input(output, "Displacement")
+        finally:
+            c._outputs = saved
+        moved = [c.shifted(lambda: c.vector_input(output, "Displacement"), axis) for axis in (0, 1)]
+        heights = []
+        for vector in [centre] + moved:
+            unused, height = c.alloc(3), c.alloc()
+            c.emit("VECTOR_MATH", P.VECTOR_MATH["DOT_PRODUCT"], vector, P.R_N, P.R_N, c.const(1.0), unused, height)
+            heights.append(height)
+        normal = c.alloc(3)
+        one = c.const(1.0)
+        c.emit("BUMP", 0, P.R_N, one, one, one, *heights, c.bump_offsets, c.bump_offsets + 3, normal)
+        c.emit("COPY", 3, normal, P.R_N)
+        self.normal = normal
+        self._normal_source = ("displacement",)
+
     def bind_normal(self, node, name="Normal") -> bool:
         """Compile a linked Normal input as the material's closure normal (True if taken)."""
         socket = node.inputs.get(name)
@@ -189,6 +215,8 @@ class SurfaceProgramCompiler:
             return False
         source = self.compiler._source(socket)
         key = (source.node.name, source.identifier)
+        if self._normal_source == ("displacement",):  # its default normal is the displaced one
+            self.normal = -1
         if self.normal >= 0:
             if key != self._normal_source:
                 self.reporter.warn(f"{self.owner}: node '{node.name}': input '{name}' differs from another BSDF's "
