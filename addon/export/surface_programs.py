@@ -202,8 +202,8 @@ class SurfaceProgramCompiler:
             c.emit("VECTOR_MATH", P.VECTOR_MATH["DOT_PRODUCT"], vector, P.R_N, P.R_N, c.const(1.0), unused, height)
             heights.append(height)
         normal = c.alloc(3)
-        one = c.const(1.0)
-        c.emit("BUMP", 0, P.R_N, one, one, one, *heights, c.bump_offsets, c.bump_offsets + 3, normal)
+        one = c.const(1.0)  # Distance 1 (set_distance), Strength and Filter Width BumpNode's defaults
+        c.emit("BUMP", 0, P.R_N, one, one, c.const(0.1), *heights, c.bump_offsets, c.bump_offsets + 3, normal)
         c.emit("COPY", 3, normal, P.R_N)
         self.normal = normal
         self._normal_source = ("displacement",)
