@@ -142,6 +142,7 @@ class SurfaceProgramCompiler:
         self.tangent = -1
         self._tangent_source = None
         self.emission = -1  # register of the material's varying emission (3), once there is one
+        self.shading_normal = -1  # R_N once a Displacement bump sets the shading normal
 
     # -- what surfaces.py asks ------------------------------------------------------------------
     def is_varying(self, socket) -> bool:
@@ -207,6 +208,7 @@ class SurfaceProgramCompiler:
         c.emit("COPY", 3, normal, P.R_N)
         self.normal = normal
         self._normal_source = ("displacement",)
+        self.shading_normal = P.R_N
 
     def bind_normal(self, node, name="Normal") -> bool:
         """Compile a linked Normal input as the material's closure normal (True if taken)."""
@@ -293,7 +295,8 @@ class SurfaceProgramCompiler:
             return None
         program = self.compiler.builder.build()
         return SurfaceProgram(program, list(bindings), list(self.compiler.inputs), self.normal, self.tangent,
-                              self.emission, self.compiler.bump_offsets, self.compiler.shift_list())
+                              self.emission, self.compiler.bump_offsets, self.compiler.shift_list(),
+                              self.shading_normal)
 
     def requested_attributes(self) -> set:
         names = {name for name, _, _ in self.compiler.inputs} | {n for n in self.compiler.shifts if n != "P"}

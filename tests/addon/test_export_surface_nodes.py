@@ -194,7 +194,7 @@ def test_displacement_output_is_a_bump_only(scene):
     (bump,) = _opcodes(program.program, "BUMP")
     init = program.program.init
     assert bump[0] == 0 and bump[1] == P.R_N and init[bump[2]] == 1.0 and init[bump[3]] == 1.0
-    assert bump[-1] == program.normal
+    assert bump[-1] == program.normal and program.shading_normal == P.R_N  # sd->N itself (no bump shadowing)
     assert [program.normal, P.R_N] in [c[1:] for c in _opcodes(program.program, "COPY") if c[0] == 3]
     assert init[displacements[0][2]] == np.float32(0.5) and init[displacements[0][3]] == 0.25  # Midlevel, Scale
     assert not any("Displaced" in w for w in warnings), warnings
