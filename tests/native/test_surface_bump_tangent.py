@@ -14,8 +14,8 @@ from volpath_native.shading.builder import ProgramBuilder
 from volpath_native.shading.images import empty_image_table
 from volpath_native.shading.interpreter import run_program_many
 from volpath_native.shading.surface_ops import _box_weights
-from volpath_native.surface_programs import (SurfaceProgram, new_surface_scratch, shade_surface_program,
-                                             surface_program_tables)
+from volpath_native.surface_programs import (SurfaceProgram, new_surface_scratch, program_shading_normal,
+                                             shade_surface_program, surface_program_tables)
 
 IDENTITY_FRAME = np.stack([np.eye(4)[:3], np.eye(4)[:3]])
 
@@ -209,12 +209,14 @@ def test_new_program_outputs_survive_a_vpscene_round_trip(tmp_path):
     scene = _emitter_scene([3.0, 2.0, 1.0])
     program = scene.materials[1].surface_program
     scene.materials[0].surface_program = _bump_plane_program("uv")
+    scene.materials[0].surface_program.shading_normal = P.R_N
     scene.meshes[0].corner_attributes["uv:"] = np.zeros((2, 3, 2))
     loaded = load_scene(save_scene(scene, tmp_path / "bumped.vpscene"))
     assert loaded.materials[1].surface_program.emission == program.emission
     bumped, original = loaded.materials[0].surface_program, scene.materials[0].surface_program
     assert (bumped.normal, bumped.tangent, bumped.bump_offsets) == (original.normal, -1, original.bump_offsets)
     assert bumped.shifts == original.shifts
+    assert bumped.shading_normal == P.R_N
 
 
 def _displaced_plane_program(space):
@@ -245,8 +247,10 @@ def _displaced_plane_program(space):
     b.emit("SWAP", 3, P.R_P, dy)
     out = b.alloc(3)
     one = b.const(1.0)
-    b.emit("BUMP", 0, P.R_N, one, one, one, hc, hx, hy, offsets, offsets + 3, out)
-    return SurfaceProgram(b.build(), normal=out, bump_offsets=offsets, shifts=[("P", 3, dx, dy)])
+    b.emit("BUMP", 0, P.R_N, one, one, b.const(0.1), hc, hx, hy, offsets, offsets + 3, out)
+    b.emit("COPY", 3, out, P.R_N)  # SetNormalNode: the shading normal itself
+    return SurfaceProgram(b.build(), normal=out, bump_offsets=offsets, shifts=[("P", 3, dx, dy)],
+                          shading_normal=P.R_N)
 
 
 def _rotation_z(angle):
@@ -290,6 +294,7 @@ def test_displacement_as_bump_on_a_tilted_plane(space, object_scale):
 
     factor = object_scale if space == "OBJECT" else 1.0
     assert np.array(normal) == pytest.approx(expected(factor), abs=2e-5)
+    assert np.array(program_shading_normal(tables, scratch, 0, tuple(ns))) == pytest.approx(np.array(normal), abs=1e-12)
     # planted errors: the object's scale ignored (or applied in World space), the height's sign flipped
     if object_scale != 1.0:
         assert not np.allclose(normal, expected(object_scale if space == "WORLD" else 1.0), atol=1e-3)
