@@ -2,7 +2,8 @@
 object scaled by 1.6 whose Wave texture (Object coordinates) drives a Displacement node in Object
 space (Midlevel 0.3, Scale 0.12: the object's scale makes it 0.19 in the world) plugged into the
 output -- no Bump node -- on a grey floor, lit by a grazing area light from the left that shows
-the bands' slopes, with a dim sky."""
+the bands' slopes, with a dim sky. The sphere's shadow terminator geometry offset is 0 (VolPath has
+none)."""
 import sys
 from pathlib import Path
 
@@ -37,6 +38,10 @@ def build(resolution=(64, 64), samples=64):
     sphere = sb.add_uv_sphere(scene, "Displaced sphere", (0.0, 0.0, 0.0), 0.35, displaced_material("Displaced sphere"))
     sphere.location = (0.0, 0.2, 0.58)
     sphere.scale = (1.6, 1.6, 1.6)
+    # Cycles' shadow terminator geometry offset (kernel/integrator/shade_surface.h shadow_ray_offset,
+    # default 0.1) lifts shadow rays off smooth triangles where the shading normal faces the light;
+    # VolPath has none (README), and a bumped shading normal faces the light well past the facets'
+    sphere.shadow_terminator_geometry_offset = 0.0
     sb.add_area_light(scene, (-2.6, -1.0, 0.9), (0.0, 0.2, 0.58), power_w=120.0, size=0.4)
     sb.set_world_background(scene, (0.6, 0.7, 0.9), 0.1)
     sb.add_camera(scene, (0.0, -2.4, 1.0), (0.0, 0.2, 0.55), lens_mm=35.0)
