@@ -38,7 +38,7 @@ def build(resolution=(64, 64), samples=64):
     sphere = sb.add_uv_sphere(scene, "Displaced sphere", (0.0, 0.0, 0.0), 0.35, displaced_material("Displaced sphere"))
     sphere.location = (0.0, 0.2, 0.58)
     sphere.scale = (1.6, 1.6, 1.6)
-    # Cycles' shadow terminator geometry offset (kernel/integrator/shade_surface.h shadow_ray_offset,
+XX
     # default 0.1) lifts shadow rays off smooth triangles where the shading normal faces the light;
     # VolPath has none (README), and a bumped shading normal faces the light well past the facets'
     sphere.shadow_terminator_geometry_offset = 0.0
