@@ -38,9 +38,9 @@ def build(resolution=(64, 64), samples=64):
     sphere = sb.add_uv_sphere(scene, "Displaced sphere", (0.0, 0.0, 0.0), 0.35, displaced_material("Displaced sphere"))
     sphere.location = (0.0, 0.2, 0.58)
     sphere.scale = (1.6, 1.6, 1.6)
-XX
+    # Cycles' shadow terminator geometry offset (kernel/light/sample.h shadow_ray_offset,
     # default 0.1) lifts shadow rays off smooth triangles where the shading normal faces the light;
-    # VolPath has none (README), and a bumped shading normal faces the light well past the facets'
+    # VolPath has none (README), and a bumped shading normal faces the light well past the facets' terminator
     sphere.shadow_terminator_geometry_offset = 0.0
     sb.add_area_light(scene, (-2.6, -1.0, 0.9), (0.0, 0.2, 0.58), power_w=120.0, size=0.4)
     sb.set_world_background(scene, (0.6, 0.7, 0.9), 0.1)
