@@ -184,6 +184,30 @@ def _bump(c, node) -> dict:
     return {"Normal": out}
 
 
+def _displacement(c, node) -> dict:
+    """DisplacementNode (C5 svm/displace.h svm_node_displacement): (Height - Midlevel) x Scale along
+    the Normal input (else the shading normal), in Object (default) or World space."""
+    normal = c.vector_input(node, "Normal") if c._source(node.inputs["Normal"]) is not None else P.R_N
+    out = c.alloc(3)
+    c.emit("DISPLACEMENT", P.DISPLACEMENT_SPACES.get(node.space, 0), c.float_input(node, "Height"),
+           c.float_input(node, "Midlevel"), c.float_input(node, "Scale"), normal, out)
+    return {"Displacement": out}
+
+
+def _vector_displacement(c, node) -> dict:
+    """VectorDisplacementNode (C5 svm/displace.h svm_node_vector_displacement) in Object / World
+    space; Tangent space (the default) needs the UV tangent frame of displace.h, not evaluated:
+    warned, read as no displacement."""
+    if node.space not in P.DISPLACEMENT_SPACES:
+        c.warn(node, f"space '{node.space}' is not evaluated by VolPath (Object and World are); "
+                     "read as no displacement")
+        return {"Displacement": c.const([0.0, 0.0, 0.0])}
+    out = c.alloc(3)
+    c.emit("VECTOR_DISPLACEMENT", P.DISPLACEMENT_SPACES[node.space], c.vector_input(node, "Vector"),
+           c.float_input(node, "Midlevel"), c.float_input(node, "Scale"), out)
+    return {"Displacement": out}
+
+
 def _geometry(c, node) -> dict:
     """GeometryNode at a surface: Position, Normal (shading), True Normal, Incoming, Backfacing,
     Tangent (primitive_tangent: the radial Z tangent of the Generated coordinates)."""
@@ -205,5 +229,5 @@ def _geometry(c, node) -> dict:
 SURFACE_NODE_COMPILERS = {
     "TEX_IMAGE": _image_texture, "UVMAP": _uv_map, "NORMAL_MAP": _normal_map, "VERTEX_COLOR": _color_attribute,
     "ATTRIBUTE": _attribute, "TEX_COORD": _texture_coordinate, "NEW_GEOMETRY": _geometry, "TANGENT": _tangent,
-    "BUMP": _bump,
+    "BUMP": _bump, "DISPLACEMENT": _displacement, "VECTOR_DISPLACEMENT": _vector_displacement,
 }

@@ -273,11 +273,7 @@ class MaterialTable:
             return vp.Material(name=name, base_color=np.zeros(3))
         surface_socket, volume_socket = output.inputs["Surface"], output.inputs["Volume"]
         displacement = output.inputs.get("Displacement")
-        if displacement is not None and _source_socket(displacement) is not None:
-            # Cycles turns it into a bump (displacement method 'Bump Only', the default) or moves
-            # the vertices; a Bump node on the Normal input is what VolPath evaluates
-            self.reporter.warn(f"material '{name}': node '{output.name}': the Displacement output is not evaluated by "
-                          "VolPath; rendered without displacement (use a Bump node on the Normal input)")
+        displaced = displacement is not None and _source_socket(displacement) is not None
         has_surface = _source_socket(surface_socket) is not None
         has_volume = _source_socket(volume_socket) is not None
         program = self._volume_program(name, volume_socket) if has_volume else None
@@ -302,6 +298,8 @@ class MaterialTable:
             return vp.Material(name=name, surface="null", base_color=np.zeros(3), medium=medium)
         # Nothing connected to Surface (and no volume) is an opaque black surface in Cycles.
         reader.program = SurfaceProgramCompiler(f"material '{name}'", self.reporter, self.images)
+        if displaced and has_surface:  # Cycles: has_bump_from_displacement needs a linked Surface too
+            self._bind_displacement(material, output, reader.program)
         surface = surface_terms(reader, _shader_node, surface_socket)
         program = None
         emission = surface.emission
@@ -320,6 +318,22 @@ class MaterialTable:
             self.corner_requests[len(self.materials)] = reader.program.requested_attributes()
         return vp.Material(name=name, surface="diffuse", base_color=np.zeros(3), emission=emission,
                            medium=medium, surface_nodes=surface.nodes, surface_program=program)
+
+    def _bind_displacement(self, material, output, program) -> None:
+        """The Displacement output as a bump (surface_programs.bind_displacement). Cycles bumps for
+        "Bump Only" (the default) and, in object space, for "Displacement and Bump", and moves the
+        vertices for the other two (scene/shader.cpp has_bump_from_displacement); VolPath never
+        moves vertices, so every method renders as "Bump Only", warned."""
+        name = material.name_full
+        method = getattr(material, "displacement_method", "BUMP")
+        if method != "BUMP":
+            self.reporter.warn(f"material '{name}': displacement method '{method}' moves the vertices in Cycles; "
+                               "VolPath has no true displacement and renders it as 'Bump Only'")
+        try:
+            program.bind_displacement(output)
+        except (KeyError, ValueError, TypeError, AttributeError) as error:
+            self.reporter.warn(f"material '{name}': node '{output.name}': the Displacement output could not be "
+                               f"compiled ({error}); rendered without displacement")
 
 
 def _volume_program_of(owner: str, socket, reporter):

@@ -142,6 +142,7 @@ class SurfaceProgramCompiler:
         self.tangent = -1
         self._tangent_source = None
         self.emission = -1  # register of the material's varying emission (3), once there is one
+        self.shading_normal = -1  # R_N once a Displacement bump sets the shading normal
 
     # -- what surfaces.py asks ------------------------------------------------------------------
     def is_varying(self, socket) -> bool:
@@ -182,6 +183,33 @@ class SurfaceProgramCompiler:
                 self.reporter.warn(f"{self.owner}: node '{node.name}' ({node.bl_idname}): input '{name}' is driven "
                                    "by nodes VolPath does not evaluate for it; the input's own value is used")
 
+    def bind_displacement(self, output) -> None:
+        """The Material Output's Displacement as Cycles' "Bump Only" (C5 scene/shader_graph.cpp
+        ShaderGraph::bump_from_displacement): the displacement vector at the hit and at the two
+        moved points (SurfaceShaderCompiler.shifted, the Bump node's machinery), each dotted with
+        the shading normal into a height, a Bump of Distance 1 and Strength 1 on the shading
+        normal, and that normal set as the material's (SetNormalNode): every later read of the
+        shading normal (BSDFs' default, Geometry, Bump / Normal Map inputs) sees it."""
+        c = self.compiler
+        saved, c._outputs = c._outputs, {}  # Cycles copies the subgraph: the surface reads its own nodes
+        try:
+            centre = c.vector_input(output, "Displacement")
+        finally:
+            c._outputs = saved
+        moved = [c.shifted(lambda: c.vector_input(output, "Displacement"), axis) for axis in (0, 1)]
+        heights = []
+        for vector in [centre] + moved:
+            unused, height = c.alloc(3), c.alloc()
+            c.emit("VECTOR_MATH", P.VECTOR_MATH["DOT_PRODUCT"], vector, P.R_N, P.R_N, c.const(1.0), unused, height)
+            heights.append(height)
+        normal = c.alloc(3)
+        one = c.const(1.0)  # Distance 1 (set_distance), Strength and Filter Width BumpNode's defaults
+        c.emit("BUMP", 0, P.R_N, one, one, c.const(0.1), *heights, c.bump_offsets, c.bump_offsets + 3, normal)
+        c.emit("COPY", 3, normal, P.R_N)
+        self.normal = normal
+        self._normal_source = ("displacement",)
+        self.shading_normal = P.R_N
+
     def bind_normal(self, node, name="Normal") -> bool:
         """Compile a linked Normal input as the material's closure normal (True if taken)."""
         socket = node.inputs.get(name)
@@ -189,6 +217,8 @@ class SurfaceProgramCompiler:
             return False
         source = self.compiler._source(socket)
         key = (source.node.name, source.identifier)
+        if self._normal_source == ("displacement",):  # its default normal is the displaced one
+            self.normal = -1
         if self.normal >= 0:
             if key != self._normal_source:
                 self.reporter.warn(f"{self.owner}: node '{node.name}': input '{name}' differs from another BSDF's "
@@ -265,7 +295,8 @@ class SurfaceProgramCompiler:
             return None
         program = self.compiler.builder.build()
         return SurfaceProgram(program, list(bindings), list(self.compiler.inputs), self.normal, self.tangent,
-                              self.emission, self.compiler.bump_offsets, self.compiler.shift_list())
+                              self.emission, self.compiler.bump_offsets, self.compiler.shift_list(),
+                              self.shading_normal)
 
     def requested_attributes(self) -> set:
         names = {name for name, _, _ in self.compiler.inputs} | {n for n in self.compiler.shifts if n != "P"}

@@ -44,7 +44,7 @@ from .mis import mis_weight, power_heuristic
 from .phase import hg_eval1, hg_sample1
 from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, LENS_U_DIM, LENS_V_DIM, SHUTTER_TIME_DIM, path_key1, uniform1
 from .instance_motion import normal_map1
-from .surface_programs import has_program_emission, program_emission, shade_surface_program
+from .surface_programs import has_program_emission, program_emission, program_shading_normal, shade_surface_program
 
 # F columns
 O, D, BETA, PREV = 0, 3, 6, 9
@@ -795,6 +795,7 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
         # textured inputs: this hit's node values in SPS.nodes (material 0 there), normal, tangent
         n_closure, tangent = shade_surface_program(SP, SPS, SN, row, prim, frame, hu, hv, pb[0], pb[1], pb[2], ns,
                                                    n_face, wi_view, not front)
+        ns = program_shading_normal(SP, SPS, row, ns)  # a Displacement bump sets sd->N itself
         nodes, row = SPS.nodes, 0
     count = setup_surface_tangent(nodes, BT, row, wi_view, n_closure, n_face, not front, tangent, CB)
     if count == 0:  # black: absorbs everything

@@ -82,7 +82,8 @@ _MESH_FIELDS = {"name": ("str", True), "smooth": ("bool", False), "attributes": 
 # validate() when built; its arrays are material{i}.program_code / _init / _tables.
 _SURFACE_PROGRAM_FIELDS = {"name": ("str", False), "varying": ("bool", False), "bindings": ("list", False),
                            "inputs": ("list", False), "normal": ("int", False), "tangent": ("int", False),
-                           "emission": ("int", False), "bump_offsets": ("int", False), "shifts": ("list", False)}
+                           "emission": ("int", False), "bump_offsets": ("int", False), "shifts": ("list", False),
+                           "shading_normal": ("int", False)}
 _IMAGE_FIELDS = {"name": ("str", True), "compress_as_srgb": ("bool", False)}
 _SECTIONS = ("camera", "film", "world", "settings", "materials", "media", "lights", "meshes", "images")
 # Largest JSON document read (bytes): a scene of 10^5 objects is far below it.

@@ -76,6 +76,10 @@ class SurfaceProgram:
     bump_offsets: first of 6 registers the kernel fills with ex, ey (Bump nodes), or -1.
     shifts: [(input, width, dx register, dy register)]: an input ("P" the position, else an
         attribute name as in `inputs`, "uv:" the active-render map) at P + ex and P + ey.
+    shading_normal: register of the shading normal the program sets (3), or -1: the Material
+        Output's Displacement bump replaces Cycles' sd->N itself (SetNormalNode, C5
+        scene/shader_graph.cpp bump_from_displacement), so closures on it get no bump shadowing
+        term (closure/bsdf.h bump_shadowing_term compares with sd->N).
     """
 
     program: ShaderProgram
@@ -86,6 +90,7 @@ class SurfaceProgram:
     emission: int = -1
     bump_offsets: int = -1
     shifts: list = field(default_factory=list)
+    shading_normal: int = -1
 
     def validate(self, nodes: list, where: str) -> None:
         """Raise ValueError for bindings or inputs outside the program or the material."""
@@ -110,7 +115,7 @@ class SurfaceProgram:
                 raise ValueError(f"{where}: bad bump input {name!r} ({width} at {dx}, {dy})")
         if self.shifts and self.bump_offsets == -1:
             raise ValueError(f"{where}: bump inputs without bump offsets")
-        for what in ("normal", "tangent", "emission"):
+        for what in ("normal", "tangent", "emission", "shading_normal"):
             reg = int(getattr(self, what))
             if reg != -1 and not 0 <= reg <= regs - 3:
                 raise ValueError(f"{where}: {what} register {reg} outside the {regs} registers")
@@ -155,7 +160,8 @@ class SurfaceProgram:
                   "inputs": [[str(n), int(w), int(r)] for n, w, r in self.inputs], "normal": int(self.normal),
                   "tangent": int(self.tangent), "emission": int(self.emission),
                   "bump_offsets": int(self.bump_offsets),
-                  "shifts": [[str(n), int(w), int(x), int(y)] for n, w, x, y in self.shifts]}
+                  "shifts": [[str(n), int(w), int(x), int(y)] for n, w, x, y in self.shifts],
+                  "shading_normal": int(self.shading_normal)}
         arrays = {"code": self.program.code, "init": self.program.init, "tables": self.program.tables}
         return header, arrays
 
@@ -167,7 +173,8 @@ class SurfaceProgram:
                    [(str(n), int(w), int(r)) for n, w, r in header.get("inputs", [])], int(header.get("normal", -1)),
                    int(header.get("tangent", -1)), int(header.get("emission", -1)),
                    int(header.get("bump_offsets", -1)),
-                   [(str(n), int(w), int(x), int(y)) for n, w, x, y in header.get("shifts", [])])
+                   [(str(n), int(w), int(x), int(y)) for n, w, x, y in header.get("shifts", [])],
+                   int(header.get("shading_normal", -1)))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -186,6 +193,7 @@ SurfaceProgramTables = namedtuple("SurfaceProgramTables", [
     "prog_input",     # (n_programs, 2) int64 first input, count
     "input",          # (n_inputs, 3) int64 corner channel (-1: the mesh has none), width, register
     "prog_bump",      # (n_programs,) int64 bump offset registers or -1
+    "prog_shading_normal",  # (n_programs,) int64 register of the shading normal the program sets, or -1
     "prog_shift",     # (n_programs, 2) int64 first shift, count
     "shift",          # (n_shifts, 5) int64 channel (-2: position, -1: none), channel width, register
                       # width, dx register, dy register
@@ -226,6 +234,7 @@ def surface_program_tables(materials, accel, images_table=None) -> SurfaceProgra
     prog_bind = np.zeros((max(len(programs), 1), 2), np.int64)
     prog_input = np.zeros((max(len(programs), 1), 2), np.int64)
     prog_bump = np.full(max(len(programs), 1), -1, np.int64)
+    prog_shading_normal = np.full(max(len(programs), 1), -1, np.int64)
     prog_shift = np.zeros((max(len(programs), 1), 2), np.int64)
     binds, inputs, shifts = [], [], []
     sizes = [0, 0, 0]
@@ -253,6 +262,7 @@ def surface_program_tables(materials, accel, images_table=None) -> SurfaceProgra
         inputs += [(channels.get(n, (-1, 0))[0] if channels.get(n, (-1, 0))[1] >= int(w) else -1, int(w), int(r))
                    for n, w, r in sp.inputs]
         prog_bump[k] = int(sp.bump_offsets)
+        prog_shading_normal[k] = int(sp.shading_normal)
         prog_shift[k] = (len(shifts), len(sp.shifts))
         for name, width, dx, dy in sp.shifts:
             channel, have = (-2, 3) if name == "P" else channels.get(name, (-1, 0))
@@ -268,7 +278,7 @@ def surface_program_tables(materials, accel, images_table=None) -> SurfaceProgra
         bind=np.array(binds, np.int64).reshape(-1, 3) if binds else np.zeros((1, 3), np.int64),
         prog_input=prog_input,
         input=np.array(inputs, np.int64).reshape(-1, 3) if inputs else np.zeros((1, 3), np.int64),
-        prog_bump=prog_bump, prog_shift=prog_shift,
+        prog_bump=prog_bump, prog_shift=prog_shift, prog_shading_normal=prog_shading_normal,
         shift=np.array(shifts, np.int64).reshape(-1, 5) if shifts else np.zeros((1, 5), np.int64),
         tri_corners=np.ascontiguousarray(accel.corners, np.float64) if bumps and accel.triangle_count
         else np.zeros((1, 3, 3)),
@@ -522,6 +532,20 @@ def shade_surface_program(SP, SS, SN, material, prim, frame, hu, hv, px, py, pz,
         if length > 0.0 and length < np.inf:  # safe_normalize of the Normal input (svm/closure.h)
             normal = (x / length, y / length, z / length)
     return normal, tangent
+
+
+@stage_kernel
+def program_shading_normal(SP, SS, material, ns):
+    """The shading normal after material's program ran (shade_surface_program, same scratch): the
+    one it sets (SurfaceProgram.shading_normal), else ns."""
+    r = SP.prog_shading_normal[SP.mat_program[material]]
+    if r < 0:
+        return ns
+    x, y, z = SS.regs[r], SS.regs[r + 1], SS.regs[r + 2]
+    length = np.sqrt(x * x + y * y + z * z)
+    if length > 0.0 and length < np.inf:
+        return (x / length, y / length, z / length)
+    return ns
 
 
 @stage_kernel

@@ -146,12 +146,9 @@ def test_box_projection(scene):
 
 
 def test_unsupported_setups_are_warned_by_material_and_node(scene):
-    """What stays a fallback names its material and node: a Displacement output, two BSDFs with
-    different tangents, a linked Filter Width."""
+    """What stays a fallback names its material and node: two BSDFs with different tangents, a
+    linked Filter Width."""
     def tree_fn(tree):
-        output = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
-        displacement = tree.nodes.new("ShaderNodeDisplacement")
-        tree.links.new(displacement.outputs[0], output.inputs["Displacement"])
         first = tree.nodes.new("ShaderNodeBsdfGlossy")
         first.inputs["Anisotropy"].default_value = 0.5
         second = tree.nodes.new("ShaderNodeBsdfGlossy")
@@ -169,6 +166,54 @@ def test_unsupported_setups_are_warned_by_material_and_node(scene):
         return add.outputs[0]
     _, warnings = _export(scene, node_material("Odd", surface=tree_fn))
     mine = [w for w in warnings if "material 'Odd'" in w]
-    assert any("Displacement" in w for w in mine), warnings
     assert any("Tangent" in w and "differs" in w for w in mine), warnings
     assert any("Filter Width" in w and "Bump" in w for w in mine), warnings
+
+
+def _displaced(tree, space="OBJECT", node_type="ShaderNodeDisplacement"):
+    output = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
+    displacement = tree.nodes.new(node_type)
+    displacement.space = space
+    displacement.inputs["Scale"].default_value = 0.25
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    tree.links.new(noise.outputs["Fac" if node_type == "ShaderNodeDisplacement" else "Color"],
+                   displacement.inputs["Height" if node_type == "ShaderNodeDisplacement" else "Vector"])
+    tree.links.new(displacement.outputs[0], output.inputs["Displacement"])
+    return tree.nodes.new("ShaderNodeBsdfDiffuse").outputs[0]
+
+
+def test_displacement_output_is_a_bump_only(scene):
+    """Cycles' default "Bump Only" (shader_graph.cpp bump_from_displacement): the Displacement node
+    three times (centre, two moved copies between SWAPs), each dotted with N, one Bump of Distance 1
+    on the shading normal, written back to N and taken as the material's normal; no warning."""
+    material, warnings = _export(scene, node_material("Displaced", surface=lambda tree: _displaced(tree)))
+    program = material.surface_program
+    assert program is not None and program.normal >= 0 and program.bump_offsets >= 0
+    displacements = _opcodes(program.program, "DISPLACEMENT")
+    assert len(displacements) == 3 and all(d[0] == P.DISPLACEMENT_SPACES["OBJECT"] for d in displacements)
+    (bump,) = _opcodes(program.program, "BUMP")
+    init = program.program.init
+    assert bump[0] == 0 and bump[1] == P.R_N and init[bump[2]] == 1.0 and init[bump[3]] == 1.0
+    assert bump[-1] == program.normal and program.shading_normal == P.R_N  # sd->N itself (no bump shadowing)
+    assert [program.normal, P.R_N] in [c[1:] for c in _opcodes(program.program, "COPY") if c[0] == 3]
+    assert init[displacements[0][2]] == np.float32(0.5) and init[displacements[0][3]] == 0.25  # Midlevel, Scale
+    assert not any("Displaced" in w for w in warnings), warnings
+
+
+def test_displacement_methods_that_move_vertices_are_warned(scene):
+    """"Displacement Only" / "Displacement and Bump" move the vertices in Cycles: rendered as the
+    bump, warned naming the material; World space and Vector Displacement (Object) compile, its
+    Tangent space (the default) is warned."""
+    for method in ("DISPLACEMENT", "BOTH"):
+        mat = node_material(f"Moved {method}", surface=lambda tree: _displaced(tree, "WORLD"))
+        mat.displacement_method = method
+        material, warnings = _export(scene, mat)
+        assert _opcodes(material.surface_program.program, "DISPLACEMENT")[0][0] == P.DISPLACEMENT_SPACES["WORLD"]
+        assert any(f"material 'Moved {method}'" in w and "Bump Only" in w for w in warnings), warnings
+    material, warnings = _export(scene, node_material("Vector object", surface=lambda tree: _displaced(
+        tree, "OBJECT", "ShaderNodeVectorDisplacement")))
+    assert len(_opcodes(material.surface_program.program, "VECTOR_DISPLACEMENT")) == 3
+    assert not any("Vector object" in w for w in warnings), warnings
+    _, warnings = _export(scene, node_material("Vector tangent", surface=lambda tree: _displaced(
+        tree, "TANGENT", "ShaderNodeVectorDisplacement")))
+    assert any("material 'Vector tangent'" in w and "TANGENT" in w for w in warnings), warnings

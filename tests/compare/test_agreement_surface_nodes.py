@@ -1,9 +1,11 @@
 """Surfaces driven by nodes against Cycles (the agreement criterion of test_agreement.py):
 anisotropic metals with the default radial tangent and a UV-map Tangent node (brushed_metal), and
 a textured Emission light, a Principled card with a procedural emission colour, a Bump-mapped
-sphere and a Box-projected image (textured_light_bump). Each feature has a planted error the
+sphere and a Box-projected image (textured_light_bump), a scaled sphere bumped by its Material
+Output's Displacement ("Bump Only", displaced_sphere). Each feature has a planted error the
 criterion must catch: the anisotropic rotation off by 90 degrees, the emission image upside down,
-the bump inverted, the box-projected image mirrored. Cycles is rendered once per scene."""
+the bump inverted, the box-projected image mirrored, the displacement's object scale ignored (World
+space). Cycles is rendered once per scene."""
 import importlib
 
 import numpy as np
@@ -42,7 +44,7 @@ def _compare(example, plant=None):
 
 
 @pytest.mark.agreement
-@pytest.mark.parametrize("example", ["brushed_metal", "textured_light_bump"])
+@pytest.mark.parametrize("example", ["brushed_metal", "textured_light_bump", "displaced_sphere"])
 def test_surface_node_scenes_agree_with_cycles(registered_addon, example, tmp_path):
     comparison, warnings = _compare(example)
     summary = comparison.summary()
@@ -82,6 +84,21 @@ def _invert_bump(native_scene):
     assert found
 
 
+def _displacement_in_world_space(native_scene):
+    """The Displacement node read in World space: the sphere's object scale 1.6 no longer scales
+    the displacement (a Midlevel error would not show: a constant height has no slope)."""
+    code = _material(native_scene, "Displaced sphere").surface_program.program.code
+    by_code = {spec.code: spec for spec in P.OPS.values()}
+    pc, found = 0, 0
+    while pc < len(code):
+        spec = by_code[int(code[pc])]
+        if int(code[pc]) == P.OP_DISPLACEMENT:
+            code[pc + 1] = P.DISPLACEMENT_SPACES["WORLD"]
+            found += 1
+        pc += 1 + len(spec.operands)
+    assert found == 3
+
+
 def _mirror_box_image(native_scene):
     image = next(im for im in native_scene.images if im.name.startswith("box"))
     image.pixels = np.ascontiguousarray(image.pixels[:, ::-1])
@@ -91,9 +108,10 @@ def _mirror_box_image(native_scene):
 @pytest.mark.parametrize("example, plant", [("brushed_metal", _rotate_90_degrees),
                                             ("textured_light_bump", _flip_emission_image),
                                             ("textured_light_bump", _invert_bump),
-                                            ("textured_light_bump", _mirror_box_image)],
+                                            ("textured_light_bump", _mirror_box_image),
+                                            ("displaced_sphere", _displacement_in_world_space)],
                          ids=["rotation_off_by_90_degrees", "emission_upside_down", "bump_inverted",
-                              "box_image_mirrored"])
+                              "box_image_mirrored", "displacement_object_scale_ignored"])
 def test_planted_surface_node_errors_fail(registered_addon, example, plant):
     comparison, _ = _compare(example, plant)
     assert not comparison.passed, comparison.summary()

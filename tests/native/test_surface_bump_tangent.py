@@ -14,8 +14,8 @@ from volpath_native.shading.builder import ProgramBuilder
 from volpath_native.shading.images import empty_image_table
 from volpath_native.shading.interpreter import run_program_many
 from volpath_native.shading.surface_ops import _box_weights
-from volpath_native.surface_programs import (SurfaceProgram, new_surface_scratch, shade_surface_program,
-                                             surface_program_tables)
+from volpath_native.surface_programs import (SurfaceProgram, new_surface_scratch, program_shading_normal,
+                                             shade_surface_program, surface_program_tables)
 
 IDENTITY_FRAME = np.stack([np.eye(4)[:3], np.eye(4)[:3]])
 
@@ -209,9 +209,115 @@ def test_new_program_outputs_survive_a_vpscene_round_trip(tmp_path):
     scene = _emitter_scene([3.0, 2.0, 1.0])
     program = scene.materials[1].surface_program
     scene.materials[0].surface_program = _bump_plane_program("uv")
+    scene.materials[0].surface_program.shading_normal = P.R_N
     scene.meshes[0].corner_attributes["uv:"] = np.zeros((2, 3, 2))
     loaded = load_scene(save_scene(scene, tmp_path / "bumped.vpscene"))
     assert loaded.materials[1].surface_program.emission == program.emission
     bumped, original = loaded.materials[0].surface_program, scene.materials[0].surface_program
     assert (bumped.normal, bumped.tangent, bumped.bump_offsets) == (original.normal, -1, original.bump_offsets)
     assert bumped.shifts == original.shifts
+    assert bumped.shading_normal == P.R_N
+
+
+def _displaced_plane_program(space):
+    """The Material Output's Displacement as the exporter compiles it for "Bump Only"
+    (scene/shader_graph.cpp bump_from_displacement): a Displacement node (Height = a . P,
+    Midlevel 0.2, Scale 0.5) at the hit and at the two moved points, each dotted with the shading
+    normal, into a Bump of Distance 1."""
+    b = ProgramBuilder("displaced plane")
+    offsets = b.alloc(6)
+    a = b.const([0.3, -0.5, 0.2])
+
+    def height():
+        position, unused, value = b.alloc(3), b.alloc(3), b.alloc()
+        b.emit("TEXCO", P.TEXCO_POSITION, position)
+        b.emit("VECTOR_MATH", P.VECTOR_MATH["DOT_PRODUCT"], position, a, a, b.const(1.0), unused, value)
+        vector, h = b.alloc(3), b.alloc()
+        b.emit("DISPLACEMENT", P.DISPLACEMENT_SPACES[space], value, b.const(0.2), b.const(0.5), P.R_N, vector)
+        b.emit("VECTOR_MATH", P.VECTOR_MATH["DOT_PRODUCT"], vector, P.R_N, P.R_N, b.const(1.0), unused, h)
+        return h
+
+    dx, dy = b.alloc(3), b.alloc(3)
+    hc = height()
+    b.emit("SWAP", 3, P.R_P, dx)
+    hx = height()
+    b.emit("SWAP", 3, P.R_P, dx)
+    b.emit("SWAP", 3, P.R_P, dy)
+    hy = height()
+    b.emit("SWAP", 3, P.R_P, dy)
+    out = b.alloc(3)
+    one = b.const(1.0)
+    b.emit("BUMP", 0, P.R_N, one, one, b.const(0.1), hc, hx, hy, offsets, offsets + 3, out)
+    b.emit("COPY", 3, out, P.R_N)  # SetNormalNode: the shading normal itself
+    return SurfaceProgram(b.build(), normal=out, bump_offsets=offsets, shifts=[("P", 3, dx, dy)],
+                          shading_normal=P.R_N)
+
+
+def _rotation_z(angle):
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+@pytest.mark.parametrize("space, object_scale", [("OBJECT", 2.5), ("WORLD", 2.5), ("OBJECT", 1.0)])
+def test_displacement_as_bump_on_a_tilted_plane(space, object_scale):
+    """Displacement (h - midlevel) x scale along N with h = a . P: in Object space the object's
+    scale s multiplies the displacement (svm_node_displacement: inverse normal transform, scale,
+    object_dir_transform), so the height's world gradient is s x 0.5 a (World: 0.5 a), and the
+    normal is the Bump node's small-footprint limit with Distance 1 -- normalize(N - (g - (g.N) /
+    (Ng.N) Ng)), g that gradient in the plane of the tilted triangle."""
+    corners = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.5], [0.0, 1.5, 0.3]])
+    rotation, translation = _rotation_z(0.6), np.array([0.4, -0.2, 0.1])
+    object_to_world = np.hstack([object_scale * rotation, translation[:, None]])
+    world_to_object = np.hstack([rotation.T / object_scale, (-rotation.T @ translation / object_scale)[:, None]])
+    assert world_to_object[:, :3] @ object_to_world[:, :3] == pytest.approx(np.eye(3))
+    mesh = Mesh("tri", corners, np.array([[0, 1, 2]]), np.zeros(1, int),
+                object_frame=np.stack([world_to_object, np.eye(4)[:3]]))
+    material = Material("displaced", surface_nodes=[SurfaceNode.for_kind("diffuse")],
+                        surface_program=_displaced_plane_program(space))
+    accel = Accelerator([mesh])
+    tables = surface_program_tables([material], accel)
+    scratch = new_surface_scratch([material], tables)
+    from volpath_native.bsdfs.nodes import surface_node_table
+
+    nodes = surface_node_table([material.surface_nodes])
+    ng = _unit(np.cross(corners[1] - corners[0], corners[2] - corners[0]))
+    ns = _unit(ng + np.array([0.2, 0.1, -0.05]))
+    hu, hv = 0.3, 0.25
+    p = corners[0] * (1 - hu - hv) + corners[1] * hu + corners[2] * hv
+    normal, _ = shade_surface_program(tables, scratch, nodes, 0, 0, hu, hv, p[0], p[1], p[2], tuple(ns),
+                                      tuple(ng), tuple(ng), False)
+
+    def expected(factor):
+        gradient = factor * 0.5 * np.array([0.3, -0.5, 0.2])
+        g = gradient - gradient.dot(ng) * ng
+        return _unit(ns - (g - g.dot(ns) / ng.dot(ns) * ng))
+
+    factor = object_scale if space == "OBJECT" else 1.0
+    assert np.array(normal) == pytest.approx(expected(factor), abs=2e-5)
+    assert np.array(program_shading_normal(tables, scratch, 0, tuple(ns))) == pytest.approx(np.array(normal), abs=1e-12)
+    # planted errors: the object's scale ignored (or applied in World space), the height's sign flipped
+    if object_scale != 1.0:
+        assert not np.allclose(normal, expected(object_scale if space == "WORLD" else 1.0), atol=1e-3)
+    assert not np.allclose(normal, expected(-factor), atol=1e-3)
+
+
+def test_displacement_nodes_at_a_point():
+    """svm_node_displacement and svm_node_vector_displacement on given inputs: World space as given,
+    Object space through a rotated frame scaled by 3 (the normal's direction kept, its length x3;
+    a vector's object-space components rotated and scaled)."""
+    rotation = _rotation_z(0.9)
+    frame = np.stack([np.hstack([rotation.T / 3.0, np.zeros((3, 1))]), np.eye(4)[:3]])
+    n = _unit([0.2, -0.4, 0.9])
+    for space, factor in (("WORLD", 1.0), ("OBJECT", 3.0)):
+        b = ProgramBuilder("displacement")
+        b.init[P.R_N:P.R_N + 3] = list(n)
+        out = b.alloc(3)
+        b.emit("DISPLACEMENT", P.DISPLACEMENT_SPACES[space], b.const(0.9), b.const(0.5), b.const(2.0), P.R_N, out)
+        assert _run(b, out, frame=frame) == pytest.approx(factor * 0.8 * n, abs=1e-12)
+        b = ProgramBuilder("vector displacement")
+        out = b.alloc(3)
+        b.emit("VECTOR_DISPLACEMENT", P.DISPLACEMENT_SPACES[space], b.const([0.7, 0.1, 0.5]), b.const(0.5),
+               b.const(2.0), out)
+        vector = 2.0 * (np.array([0.7, 0.1, 0.5]) - 0.5)
+        want = vector if space == "WORLD" else 3.0 * rotation @ vector
+        assert _run(b, out, frame=frame) == pytest.approx(want, abs=1e-12)

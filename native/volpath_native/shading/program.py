@@ -171,6 +171,15 @@ OP_SWAP = define("SWAP", 65, "count#", "a", "b")
 OP_IMAGE_BOX = define("IMAGE_BOX", 66, "image#", "interpolation#", "extension#", "unassociate#", "blend", "vector3",
                       "normal3", "out_color3", "out_alpha")
 
+# Displacement node (C5 svm/displace.h svm_node_displacement): (height - midlevel) x scale along
+# normal3; space# DISPLACEMENT_SPACES: Object scales the object-space normal and takes it back to
+# world space (so the object's scale scales the displacement), World uses normal3 as it is.
+OP_DISPLACEMENT = define("DISPLACEMENT", 67, "space#", "height", "midlevel", "scale", "normal3", "out3")
+DISPLACEMENT_SPACES = {"OBJECT": 0, "WORLD": 1}
+# Vector Displacement node (C5 svm/displace.h svm_node_vector_displacement), Object / World space:
+# (vector3 - midlevel) x scale, taken from object to world space for Object (space# as above).
+OP_VECTOR_DISPLACEMENT = define("VECTOR_DISPLACEMENT", 68, "space#", "vector3", "midlevel", "scale", "out3")
+
 # Math kinds (Blender's NODE_MATH_* enum values: DNA_node_types.h), used by the compiler by name.
 MATH_KINDS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "SINE", "COSINE", "TANGENT", "ARCSINE", "ARCCOSINE",
               "ARCTANGENT", "POWER", "LOGARITHM", "MINIMUM", "MAXIMUM", "ROUND", "LESS_THAN", "GREATER_THAN",

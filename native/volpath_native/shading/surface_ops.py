@@ -8,8 +8,8 @@ import math
 
 from ..jit import stage_kernel
 from .images import image_texture
-from .program import (OP_BUMP, OP_IMAGE_BOX, OP_IMAGE_TEXTURE, OP_NORMAL_MAP, OP_OBJECT_NORMAL, OP_SWAP, OP_TANGENT, R_BACKFACING,
-                      TANGENT_UV)
+from .program import (OP_BUMP, OP_DISPLACEMENT, OP_IMAGE_BOX, OP_IMAGE_TEXTURE, OP_NORMAL_MAP, OP_OBJECT_NORMAL,
+                      OP_SWAP, OP_TANGENT, OP_VECTOR_DISPLACEMENT, R_BACKFACING, TANGENT_UV)
 
 _PI = math.pi
 
@@ -63,6 +63,24 @@ def _object_normal(frame, nx, ny, nz):
     if det < 0.0:
         ox, oy, oz = -ox, -oy, -oz
     return _safe_normalize(ox, oy, oz)
+
+
+@stage_kernel
+def _object_direction(frame, dx, dy, dz):
+    """object_dir_transform (C5 kernel/geom/object.h): (object -> world) d, the inverse of the 3x3
+    part of frame[0] (world -> object) applied through its adjugate; 0 for a singular frame."""
+    m = frame[0]
+    a00, a01, a02 = m[0, 0], m[0, 1], m[0, 2]
+    a10, a11, a12 = m[1, 0], m[1, 1], m[1, 2]
+    a20, a21, a22 = m[2, 0], m[2, 1], m[2, 2]
+    c00, c01, c02 = a11 * a22 - a12 * a21, -(a10 * a22 - a12 * a20), a10 * a21 - a11 * a20
+    c10, c11, c12 = -(a01 * a22 - a02 * a21), a00 * a22 - a02 * a20, -(a00 * a21 - a01 * a20)
+    c20, c21, c22 = a01 * a12 - a02 * a11, -(a00 * a12 - a02 * a10), a00 * a11 - a01 * a10
+    det = a00 * c00 + a01 * c01 + a02 * c02
+    if det == 0.0:
+        return 0.0, 0.0, 0.0
+    return ((c00 * dx + c10 * dy + c20 * dz) / det, (c01 * dx + c11 * dy + c21 * dz) / det,
+            (c02 * dx + c12 * dy + c22 * dz) / det)
 
 
 @stage_kernel
@@ -277,6 +295,24 @@ def run_surface_op(op, code, a, regs, tables, images, frame):
         o = code[a + 7]
         regs[o], regs[o + 1], regs[o + 2] = r, g, b
         regs[code[a + 8]] = alpha
+    elif op == OP_DISPLACEMENT:  # svm_node_displacement
+        amount = (regs[code[a + 1]] - regs[code[a + 2]]) * regs[code[a + 3]]
+        n = code[a + 4]
+        nx, ny, nz = regs[n], regs[n + 1], regs[n + 2]
+        if code[a] == 0:  # object space: inverse normal transform, scale, back to world
+            nx, ny, nz = _object_normal(frame, nx, ny, nz)
+            nx, ny, nz = _object_direction(frame, nx * amount, ny * amount, nz * amount)
+        else:
+            nx, ny, nz = nx * amount, ny * amount, nz * amount
+        o = code[a + 5]
+        regs[o], regs[o + 1], regs[o + 2] = nx, ny, nz
+    elif op == OP_VECTOR_DISPLACEMENT:  # svm_node_vector_displacement (object / world space)
+        v, mid, scale = code[a + 1], regs[code[a + 2]], regs[code[a + 3]]
+        dx, dy, dz = (regs[v] - mid) * scale, (regs[v + 1] - mid) * scale, (regs[v + 2] - mid) * scale
+        if code[a] == 0:
+            dx, dy, dz = _object_direction(frame, dx, dy, dz)
+        o = code[a + 4]
+        regs[o], regs[o + 1], regs[o + 2] = dx, dy, dz
     elif op == OP_SWAP:
         x, y = code[a + 1], code[a + 2]
         for c in range(code[a]):
