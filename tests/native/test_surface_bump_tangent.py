@@ -284,7 +284,7 @@ def test_displacement_as_bump_on_a_tilted_plane(space, object_scale):
     ns = _unit(ng + np.array([0.2, 0.1, -0.05]))
     hu, hv = 0.3, 0.25
     p = corners[0] * (1 - hu - hv) + corners[1] * hu + corners[2] * hv
-    normal, _ = shade_surface_program(tables, scratch, nodes, 0, 0, hu, hv, p[0], p[1], p[2], tuple(ns),
+    normal, _ = shade_surface_program(tables, scratch, nodes, 0, 0, 0, hu, hv, p[0], p[1], p[2], tuple(ns),
                                       tuple(ng), tuple(ng), False)
 
     def expected(factor):
