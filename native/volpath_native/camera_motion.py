@@ -100,15 +100,14 @@ def decompose_motion(rotations, translations) -> tuple[np.ndarray, np.ndarray]:
 
 
 @kernel
-def interpolate_motion1(quats, translations, time):
-    """(rotation 3x3 as 9 numbers row by row, position (3,)) of the camera at shutter time in [0, 1]."""
-    maxstep = quats.shape[0] - 1
-    step = min(np.int64(time * maxstep), maxstep - 1)
-    t = time * maxstep - step
-    a0, a1, a2, a3 = quats[step, 0], quats[step, 1], quats[step, 2], quats[step, 3]
-    b0, b1, b2, b3 = quats[step + 1, 0], quats[step + 1, 1], quats[step + 1, 2], quats[step + 1, 3]
+def slerp_rotation1(a, b, t):
+    """Rotation (3x3 as 9 numbers row by row) of the unit quaternions a, b (x, y, z, w)
+    interpolated at t in [0, 1] as Cycles' quat_interpolate (util/transform.h): normalised lerp
+    when nearly parallel, else slerp."""
+    a0, a1, a2, a3 = a[0], a[1], a[2], a[3]
+    b0, b1, b2, b3 = b[0], b[1], b[2], b[3]
     cos_theta = a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3
-    if cos_theta > 0.9995:  # quat_interpolate: normalised lerp when nearly parallel
+    if cos_theta > 0.9995:
         x, y, z, w = (1.0 - t) * a0 + t * b0, (1.0 - t) * a1 + t * b1, (1.0 - t) * a2 + t * b2, (1.0 - t) * a3 + t * b3
         norm = np.sqrt(x * x + y * y + z * z + w * w)
         x, y, z, w = x / norm, y / norm, z / norm, w / norm
@@ -118,9 +117,18 @@ def interpolate_motion1(quats, translations, time):
         norm = np.sqrt(p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3)
         c, s = np.cos(theta * t), np.sin(theta * t) / norm
         x, y, z, w = a0 * c + p0 * s, a1 * c + p1 * s, a2 * c + p2 * s, a3 * c + p3 * s
-    rotation = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y),
-                2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x),
-                2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y))
+    return (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y),
+            2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x),
+            2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y))
+
+
+@kernel
+def interpolate_motion1(quats, translations, time):
+    """(rotation 3x3 as 9 numbers row by row, position (3,)) of the camera at shutter time in [0, 1]."""
+    maxstep = quats.shape[0] - 1
+    step = min(np.int64(time * maxstep), maxstep - 1)
+    t = time * maxstep - step
+    rotation = slerp_rotation1(quats[step], quats[step + 1], t)
     position = ((1.0 - t) * translations[step, 0] + t * translations[step + 1, 0],
                 (1.0 - t) * translations[step, 1] + t * translations[step + 1, 1],
                 (1.0 - t) * translations[step, 2] + t * translations[step + 1, 2])

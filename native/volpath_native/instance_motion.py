@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .camera_motion import slerp_rotation1
 from .embree.motion import decomposed_steps
 from .jit import inline_stage_kernel, stage_kernel
 
@@ -39,22 +40,8 @@ def transform_at1(table, steps, k, time):
     maxstep = steps - 1
     step = min(max(np.int64(time * maxstep), 0), maxstep - 1)
     t = min(max(time * maxstep - step, 0.0), 1.0)
-    a0, a1, a2, a3 = table[k, step, 0], table[k, step, 1], table[k, step, 2], table[k, step, 3]
-    b0, b1, b2, b3 = table[k, step + 1, 0], table[k, step + 1, 1], table[k, step + 1, 2], table[k, step + 1, 3]
-    cos_theta = a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3
-    if cos_theta > 0.9995:  # quat_interpolate: normalised lerp when nearly parallel
-        x, y, z, w = (1.0 - t) * a0 + t * b0, (1.0 - t) * a1 + t * b1, (1.0 - t) * a2 + t * b2, (1.0 - t) * a3 + t * b3
-        norm = np.sqrt(x * x + y * y + z * z + w * w)
-        x, y, z, w = x / norm, y / norm, z / norm, w / norm
-    else:
-        theta = np.arccos(min(max(cos_theta, -1.0), 1.0))
-        p0, p1, p2, p3 = b0 - a0 * cos_theta, b1 - a1 * cos_theta, b2 - a2 * cos_theta, b3 - a3 * cos_theta
-        norm = np.sqrt(p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3)
-        c, s = np.cos(theta * t), np.sin(theta * t) / norm
-        x, y, z, w = a0 * c + p0 * s, a1 * c + p1 * s, a2 * c + p2 * s, a3 * c + p3 * s
-    r00, r01, r02 = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)
-    r10, r11, r12 = 2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)
-    r20, r21, r22 = 2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = slerp_rotation1(table[k, step, QUAT:QUAT + 4],
+                                                                  table[k, step + 1, QUAT:QUAT + 4], t)
     s00 = (1.0 - t) * table[k, step, SCALE + 0] + t * table[k, step + 1, SCALE + 0]
     s01 = (1.0 - t) * table[k, step, SCALE + 1] + t * table[k, step + 1, SCALE + 1]
     s02 = (1.0 - t) * table[k, step, SCALE + 2] + t * table[k, step + 1, SCALE + 2]
