@@ -20,7 +20,7 @@ demo: venv
 	$(PY) -m addon.compare demo --out $(OUT)
 
 test: venv
-	$(PY) -m pytest -q tests
+	$(PY) -m pytest -q --durations=25 tests
 
 test-native: venv
 	$(PY) -m pytest -q tests/native

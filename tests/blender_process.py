@@ -23,12 +23,16 @@ def install_volpath(home: Path):
     user config (HOME, BLENDER_USER_CONFIG, BLENDER_USER_SCRIPTS), never the real user's."""
     if not Path(BLENDER).exists():
         pytest.skip("no Blender executable (set $BLENDER)")
-    env = dict(os.environ, HOME=str(home), BLENDER_USER_CONFIG=str(home / "config"),
-               BLENDER_USER_SCRIPTS=str(home / "scripts"))
+    from volpath_native.jit import cache_root
+
+    # the build reuses the kernels this test session compiled: their cache folder is named before
+    # HOME moves (else the build compiles every kernel again, ~10 min on CI's 2 cores)
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache_root(), HOME=str(home),
+               BLENDER_USER_CONFIG=str(home / "config"), BLENDER_USER_SCRIPTS=str(home / "scripts"))
     env.pop("PYTHONPATH", None)
-    # the build reuses the kernels this checkout compiled ($NUMBA_CACHE_DIR); Blender starts as a
-    # fresh install: its kernel cache in the add-on's per-user folder, the CPU target its own choice
-    run_blender(["make", "-s", "-C", ROOT, "install-blender", f"BLENDER={BLENDER}"], env)
+    # Blender starts as a fresh install: its kernel cache in the add-on's per-user folder, the CPU
+    # target its own choice; a cold build (kernels not compiled yet) may take minutes
+    run_blender(["make", "-s", "-C", ROOT, "install-blender", f"BLENDER={BLENDER}"], env, timeout=1500)
     for variable in ("NUMBA_CACHE_DIR", "NUMBA_CPU_NAME", "NUMBA_CPU_FEATURES"):
         env.pop(variable, None)
     return home, env
