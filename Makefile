@@ -46,6 +46,7 @@ install-blender: venv
 	$(PY) addon/build_extension.py install --blender "$(BLENDER)"
 
 bench: venv
+	$(PY) -m pip install -q -r requirements-bench.txt
 	$(PY) tests/benchmarks/run_all.py
 
 clean:

@@ -24,6 +24,7 @@ class EqualTimeRow:
     reference_spp: int
     mean_ratio: np.ndarray  # VolPath / reference, per channel
     lookups_per_sample: np.ndarray = None  # VolPath's medium lookups per camera sample: free flight, shadow, attenuation
+    reference_mean: np.ndarray = None  # the Cycles reference's image mean, per channel
 
     @property
     def error_ratio(self) -> float:
@@ -72,4 +73,4 @@ def equal_time_row(name: str, scene, native_scene, seconds: float, reference_spp
     means_r = metrics.rgb(reference.image).mean(axis=(0, 1))
     return EqualTimeRow(name, volpath_run.samples, volpath_run.render_seconds, cycles_run.samples,
                         max(cycles_run.render_seconds, 1e-9), raw_v - reference_share, raw_c - reference_share,
-                        reference_spp, means_v / np.maximum(means_r, 1e-30), lookups)
+                        reference_spp, means_v / np.maximum(means_r, 1e-30), lookups, means_r)

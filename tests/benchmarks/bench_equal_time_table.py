@@ -1,0 +1,120 @@
+"""Benchmark: the equal-time table over scene classes -- VolPath, Cycles and Mitsuba 3 on the same
+.blend scenes (not collected by pytest; issue 12's measure).
+
+Each row: every engine renders for the same wall time (Cycles' scene sync, Mitsuba's scene load
+and JIT, VolPath's kernel warm-up left out); relMSE against a high-sample reference, and the time
+each engine needs for Cycles' error ("x Cycles' time", relMSE x time being constant for unbiased
+Monte Carlo). VolPath and Cycles are measured against a Cycles reference (equal_time.py); Mitsuba,
+whose film filter and bounce limits differ (mitsuba_peer.py), against its own reference, with its
+image mean against Cycles' reference printed as a check. Rows Mitsuba cannot render as Cycles
+does show the reason instead. The procedural, grid and surface rows run in bench_procedural.py,
+bench_cloud.py, bench_fire.py and bench_surfaces.py.
+
+    python tests/benchmarks/bench_equal_time_table.py [--seconds 10] [--reference-spp 1024] [--resolution 64]
+        [--rows cornell_point,...] [--no-mitsuba] [--quick]
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+for path in (str(ROOT), str(ROOT / "native"), str(Path(__file__).resolve().parent)):
+    if path not in sys.path:
+        sys.path.insert(0, path)
+
+import mitsuba_peer  # noqa: E402
+from equal_time import equal_time_row  # noqa: E402
+
+
+def _spot_hard_edge(scene):
+    # Mitsuba's spot falloff is linear in angle, Blender's a smoothstep: compare with blend 0
+    for obj in scene.objects:
+        if obj.type == "LIGHT" and obj.data.type == "SPOT":
+            obj.data.spot_blend = 0.0
+
+
+def _lights_visible(scene):
+    # Mitsuba cannot hide an emitter from camera rays: the lamp is in view for every engine
+    for obj in scene.objects:
+        if obj.type == "LIGHT":
+            obj.visible_camera = True
+
+
+# name: (example module, build keyword arguments, tweak applied to the Blender scene for all engines)
+ROWS = {
+    "cornell_point": ("cornell_fog", {}, None),
+    "cornell_spot": ("spot_godrays", {}, _spot_hard_edge),
+    "cornell_area": ("area_light", {}, _lights_visible),
+    "sun_godrays": ("sun_window", {"world_volume": False}, None),
+    "chromatic_absorber": ("absorbing_medium", {}, None),
+    "dense_fog": ("heavy_density", {}, None),
+    "glass_of_liquid": ("glass_of_liquid", {}, None),
+}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=10.0, help="equal render-time budget per engine")
+    parser.add_argument("--reference-spp", type=int, default=1024)
+    parser.add_argument("--resolution", type=int, default=64)
+    parser.add_argument("--rows", default=",".join(ROWS), help="comma-separated row names")
+    parser.add_argument("--no-mitsuba", action="store_true")
+    parser.add_argument("--quick", action="store_true", help="32x32, 2 s, reference 128 spp (smoke test)")
+    args = parser.parse_args(argv)
+    if args.quick:
+        args.seconds, args.reference_spp, args.resolution = 2.0, 128, 32
+    with_mitsuba = not args.no_mitsuba and mitsuba_peer.available()
+    if not args.no_mitsuba and not with_mitsuba:
+        print("Mitsuba 3 is not installed (pip install mitsuba): its column is left out")
+
+    import addon
+
+    addon.register()
+    from addon.compare import metrics, volpath_engine
+    import volpath_native
+
+    print(f"kernel warm-up {volpath_native.warm_up():.1f} s (not counted)")
+    pixels = args.resolution ** 2
+    table = []
+    for name in args.rows.split(","):
+        module, kwargs, tweak = ROWS[name]
+        scene = importlib.import_module(f"examples.{module}").build(resolution=(args.resolution,) * 2, samples=16,
+                                                                    **kwargs)
+        if tweak:
+            tweak(scene)
+        native_scene, _ = volpath_engine.export(scene)
+        with tempfile.TemporaryDirectory(prefix=f"volpath_bench_{name}_") as tmp:
+            row = equal_time_row(name, scene, native_scene, args.seconds, args.reference_spp, Path(tmp))
+        print(*row.lines(pixels), sep="\n", flush=True)
+        mitsuba_cell = "-"
+        if with_mitsuba:
+            try:
+                run, reference = mitsuba_peer.render_equal_time(native_scene, args.seconds, args.reference_spp)
+            except mitsuba_peer.Unsupported as exc:
+                mitsuba_cell = f"n/a ({exc})"
+                print(f"  Mitsuba: not rendered: {exc}")
+            else:
+                raw = metrics.relmse(run.image, reference.image)
+                relmse = raw * run.samples / (run.samples + reference.samples)  # its reference's share removed
+                ratio = relmse * run.render_seconds / (row.relmse_cycles * row.cycles_seconds)
+                mean = run.image.mean(axis=(0, 1)) / np.maximum(row.reference_mean, 1e-30)
+                print(f"  Mitsuba 3 ({mitsuba_peer.VARIANT}): {run.samples} spp in {run.render_seconds:.1f} s "
+                      f"({run.samples * pixels / run.render_seconds / 1e3:.1f} k samples/s), relMSE vs its own "
+                      f"{reference.samples}-spp reference {relmse:.4g}; needs {ratio:.3g}x Cycles' time; "
+                      "image mean / Cycles reference R/G/B " + " ".join(f"{m:.4f}" for m in mean), flush=True)
+                mitsuba_cell = f"{ratio:.3g}x"
+        table.append((name, f"{row.time_ratio:.3g}x", mitsuba_cell))
+    print("\n| row | VolPath: x Cycles' time | Mitsuba 3: x Cycles' time |\n|---|---|---|")
+    for name, volpath_cell, mitsuba_cell in table:
+        print(f"| {name} | {volpath_cell} | {mitsuba_cell} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
