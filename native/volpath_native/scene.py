@@ -205,17 +205,6 @@ class Material:
 # ----------------------------------------------------------------------------------------------
 # Geometry
 # ----------------------------------------------------------------------------------------------
-TRIANGLE_CHUNK = 1 << 18  # triangles per block of array work: temporaries of a few MB
-
-
-def triangle_cross(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(k, 3) float64 (p1 - p0) x (p2 - p0) of triangles (k, 3) into vertices (V, 3)."""
-    p0 = vertices[triangles[:, 0]].astype(np.float64)
-    e1 = vertices[triangles[:, 1]] - p0
-    e2 = vertices[triangles[:, 2]] - p0
-    return np.cross(e1, e2)
-
-
 def padded_rows(values: np.ndarray, dtype=np.float32) -> np.ndarray:
     """values as a contiguous (N, 3) array whose memory extends at least 16 bytes past its end
     inside the same numpy allocation (Embree reads vertex buffers with 16-byte loads,
