@@ -62,6 +62,8 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         export_seconds = time.perf_counter() - started
 
         layer_name = depsgraph.view_layer.name
+        _free_blender_memory(self, depsgraph)  # the depsgraph is gone after this
+        del depsgraph
         # The Render Result covers the border region only (Blender crops it itself); its rows run
         # bottom-up.
         result = self.begin_result(0, 0, width, height, layer=layer_name)
@@ -147,6 +149,16 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
     def _fail(self, message: str):
         self.report({"ERROR"}, message)
         self.error_set(message)
+
+
+def _free_blender_memory(engine, depsgraph):
+    """Everything is exported: let Blender free the render's evaluated scene (its modifier
+    results, often the largest part of a big mesh's memory) as Cycles does in background renders
+    of a single view (blender/session.cpp, BlenderSession::render -> free_blender_memory_if_possible;
+    Blender keeps it with Persistent Data). Interactive renders keep it, as Cycles."""
+    render = depsgraph.scene.render
+    if bpy.app.background and not render.use_multiview and hasattr(engine, "free_blender_memory"):
+        engine.free_blender_memory()
 
 
 def _crop_window(film):

@@ -16,15 +16,16 @@ from __future__ import annotations
 import numpy as np
 
 
-def corner_attribute_arrays(obj, mesh, requests, reporter) -> dict:
-    n_tri = len(mesh.loop_triangles)
-    loops = np.empty(n_tri * 3, np.int32)
-    mesh.loop_triangles.foreach_get("loops", loops)
+def corner_attribute_arrays(obj, mesh, requests, reporter, loops, faces, corner_vertices) -> dict:
+    """loops (T * 3,): the loop triangles' corners; faces (T,): their faces; corner_vertices
+    (loops,): each corner's vertex (geometry.triangulate read them)."""
+    n_tri = len(faces)
+    mesh_tables = (faces, corner_vertices)
     out = {}
     for name in sorted(requests):
         kind, _, key = name.partition(":")
         try:
-            values = _read(obj, mesh, kind, key, loops, n_tri)
+            values = _read(obj, mesh, kind, key, loops, n_tri, mesh_tables)
         except (RuntimeError, ValueError, AttributeError, TypeError) as error:
             _warn(reporter, f"object '{obj.name}': attribute '{name}' could not be read ({error}); read as 0")
             continue
@@ -50,7 +51,7 @@ def _uv_layer(mesh, key):
     return next((layer for layer in mesh.uv_layers if layer.active_render), None)
 
 
-def _read(obj, mesh, kind, key, loops, n_tri):
+def _read(obj, mesh, kind, key, loops, n_tri, mesh_tables):
     n_loops = len(mesh.loops)
     if kind == "uv":
         layer = _uv_layer(mesh, key)
@@ -83,14 +84,14 @@ def _read(obj, mesh, kind, key, loops, n_tri):
                 attribute = attributes[index] if 0 <= index < len(attributes) else attributes[0]
         if attribute is None:
             return None
-        return _per_corner(mesh, attribute, "color", 4, loops)
+        return _per_corner(mesh, attribute, "color", 4, loops, mesh_tables)
     if kind == "attr":
         attribute = getattr(mesh, "color_attributes", {}).get(key) if key else None
         if attribute is not None:
-            return _per_corner(mesh, attribute, "color", 4, loops)
+            return _per_corner(mesh, attribute, "color", 4, loops, mesh_tables)
         layer = mesh.uv_layers.get(key) if key else None
         if layer is not None:
-            uv = _read(obj, mesh, "uv", key, loops, n_tri)
+            uv = _read(obj, mesh, "uv", key, loops, n_tri, mesh_tables)
             return np.concatenate([uv, np.zeros((len(uv), 1), np.float32), np.ones((len(uv), 1), np.float32)], 1)
         attribute = mesh.attributes.get(key) if key else None
         if attribute is None:
@@ -100,7 +101,7 @@ def _read(obj, mesh, kind, key, loops, n_tri):
         if attribute.data_type not in kinds:
             return None
         prop, width = kinds[attribute.data_type]
-        values = _per_corner(mesh, attribute, prop, width, loops)
+        values = _per_corner(mesh, attribute, prop, width, loops, mesh_tables)
         ones = np.ones((len(values), 1), np.float32)
         if width == 1:
             return np.concatenate([values, values, values, ones], axis=1)
@@ -112,7 +113,7 @@ def _read(obj, mesh, kind, key, loops, n_tri):
     return None
 
 
-def _per_corner(mesh, attribute, prop, width, loops):
+def _per_corner(mesh, attribute, prop, width, loops, mesh_tables):
     """The attribute's values at the triangles' corners (point, corner or face domain)."""
     n = len(attribute.data)
     if attribute.data_type in ("INT", "BOOLEAN"):
@@ -126,12 +127,9 @@ def _per_corner(mesh, attribute, prop, width, loops):
     domain = attribute.domain
     if domain == "CORNER":
         return values[loops]
+    faces, corner_vertices = mesh_tables
     if domain == "POINT":
-        vertex = np.empty(len(mesh.loops), np.int32)
-        mesh.loops.foreach_get("vertex_index", vertex)
-        return values[vertex[loops]]
+        return values[corner_vertices[loops]]
     if domain == "FACE":
-        polygon = np.empty(len(mesh.loop_triangles), np.int32)
-        mesh.loop_triangles.foreach_get("polygon_index", polygon)
-        return np.repeat(values[polygon], 3, axis=0)
+        return np.repeat(values[faces], 3, axis=0)
     raise ValueError(f"domain {domain} is not supported")

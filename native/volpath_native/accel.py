@@ -13,8 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .embree import TriangleScene
+from .embree import library as embree_library
 from .instance_motion import motion_table
-from .scene import TRIANGLE_CHUNK as _CHUNK, Mesh, doubled_areas, padded_rows, triangle_cross as _cross
+from .scene import Mesh, doubled_areas, padded_rows
+from .triangle_geometry import corner_bounds
 
 MISS = -1
 NO_INSTANCE = -1
@@ -33,9 +35,9 @@ class Accelerator:
     """All triangles of the scene and an Embree BVH over them.
 
     Per triangle it keeps: vertex indices (int32), material and mesh ids (int32), the geometric
-    normal (float64 x3), the area (float64) and, for smooth meshes, corner normals (float32 x9);
-    the float64 corner positions (`corners`, 72 bytes a triangle) only when asked for
-    (triangle_corners for a few). Array work runs in chunks, so temporaries stay small.
+    normal (float64 x3; the meshes' own, Mesh.triangle_normals) and, for smooth meshes, corner
+    normals (float32 x9; a single mesh's own table, not a copy); areas (float64) and the float64
+    corner positions (`corners`, 72 bytes a triangle) only when asked for (mesh lights).
 
     Instanced meshes (Mesh.instances) keep their triangles once, in object space, after the
     world-space ones (triangle ids >= world_triangle_count); Embree instances them and a hit
@@ -47,7 +49,9 @@ class Accelerator:
     meshes whose materials emit or bound a medium are traced as world copies instead (the light
     table and the volume stacks index world triangles)."""
 
-    def __init__(self, meshes: list[Mesh], materials: list | None = None):
+    def __init__(self, meshes: list[Mesh], materials: list | None = None, camera_samples: int | None = None):
+        """camera_samples: pixels x samples the render will trace, which picks Embree's build
+        quality (build_quality); None: Cycles' MEDIUM."""
         world, prototypes = [], []
         self.warnings: list[str] = []
         for mesh in meshes:
@@ -63,18 +67,21 @@ class Accelerator:
         # static world meshes share one Embree geometry; deforming ones get their own (time steps)
         meshes = [m for m in world if m.vertex_motion is None] + [m for m in world if m.vertex_motion is not None] \
             + prototypes
-        verts, tris, mats, mesh_ids, kept_meshes = [], [], [], [], []
+        verts, tris, mats, mesh_ids, normals, kept_meshes = [], [], [], [], [], []
         base = 0
         for mesh_index, mesh in enumerate(meshes):
             t = mesh.triangles
             if len(t):
-                keep = doubled_areas(mesh.vertices, t) > 1e-20  # degenerate ones dropped (Scene.validate warns)
+                mesh_normals, doubled_areas = mesh.triangle_normals()  # computed by Scene.validate
+                mesh.release_triangle_normals()  # ours now: the mesh keeps no second copy
+                keep = doubled_areas > 1e-20  # degenerate ones dropped (Scene.validate warns)
                 everything = bool(keep.all())
                 kept = t if everything else t[keep]
                 verts.append(mesh.vertices)
                 tris.append(kept + base if base else kept)
                 mats.append(mesh.material_ids if everything else mesh.material_ids[keep])
                 mesh_ids.append(np.full(len(tris[-1]), mesh_index, dtype=np.int32))
+                normals.append(mesh_normals if everything else mesh_normals[keep])
                 kept_meshes.append((mesh, None if everything else keep))
             base += len(mesh.vertices)
         self.has_smooth = any(mesh.corner_normals is not None for mesh, _ in kept_meshes)
@@ -83,31 +90,33 @@ class Accelerator:
             self.triangles = _joined(tris, np.int32)
             self.material_ids = _joined(mats, np.int32)
             self.mesh_ids = _joined(mesh_ids, np.int32)
+            # outward for CCW triangles (object space for prototypes): the vertices are the
+            # meshes' own float32 ones, so their normals are the same numbers
+            self.normals = _joined(normals, np.float64)
         else:
             self.vertices = np.zeros((0, 3), np.float32)
             self.triangles = np.zeros((0, 3), np.int32)
             self.material_ids = np.zeros(0, np.int32)
             self.mesh_ids = np.zeros(0, np.int32)
+            self.normals = np.zeros((0, 3))
+        del normals
         n = len(self.triangles)
-        self.normals = np.empty((n, 3))  # outward for CCW triangles (object space for prototypes)
-        self.areas = np.empty(n)
-        for lo in range(0, n, _CHUNK):
-            hi = min(lo + _CHUNK, n)
-            cross = _cross(self.vertices, self.triangles[lo:hi])
-            length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
-            self.normals[lo:hi] = cross / np.maximum(length, 1e-30)[:, None]
-            self.areas[lo:hi] = 0.5 * length
+        self._areas = None
         if self.has_smooth:
-            self.corner_normals = np.empty((n, 3, 3), np.float32)
-            start = 0
-            for mesh, keep in kept_meshes:
-                count = len(mesh.triangles) if keep is None else int(np.count_nonzero(keep))
-                normals = mesh.corner_normals
-                if normals is None:  # flat mesh among smooth ones: the geometric normal at every corner
-                    self.corner_normals[start:start + count] = self.normals[start:start + count, None, :]
-                else:
-                    self.corner_normals[start:start + count] = normals if keep is None else normals[keep]
-                start += count
+            only = kept_meshes[0][0] if len(kept_meshes) == 1 and kept_meshes[0][1] is None else None
+            if only is not None:  # one mesh, every triangle kept: its own table, not a copy
+                self.corner_normals = only.corner_normals
+            else:
+                self.corner_normals = np.empty((n, 3, 3), np.float32)
+                start = 0
+                for mesh, keep in kept_meshes:
+                    count = len(mesh.triangles) if keep is None else int(np.count_nonzero(keep))
+                    normals = mesh.corner_normals
+                    if normals is None:  # flat mesh among smooth ones: the geometric normal at every corner
+                        self.corner_normals[start:start + count] = self.normals[start:start + count, None, :]
+                    else:
+                        self.corner_normals[start:start + count] = normals if keep is None else normals[keep]
+                    start += count
         self._meshes = list(meshes)  # per-corner attributes and frames (surface programs)
         self._kept = kept_meshes
         self.world_triangle_count = sum(len(t) for t, (mesh, _) in zip(tris, kept_meshes) if mesh.instances is None)
@@ -119,11 +128,12 @@ class Accelerator:
         self.epsilon = 1e-5 * max(1.0, float(np.abs(np.concatenate([lo, hi])).max()))
         self._corners = None
         self._embree = None
+        self.build_quality = build_quality(n, camera_samples)
         if n:
             # Embree reads self.vertices / self.triangles in place (they live as long as self):
             # the world triangles in the top scene, each prototype's range in a scene of its own
             # (a deforming mesh: its own vertex steps and triangles, Cycles bvh/embree.cpp add_triangles)
-            self._embree = TriangleScene()
+            self._embree = TriangleScene(self.build_quality)
             deforming = {first: (mesh, keep) for first, (mesh, keep) in self._deforming.items()}
             static = min([self.world_triangle_count] + [f for f in deforming if f < self.world_triangle_count])
             if static:
@@ -132,7 +142,7 @@ class Accelerator:
                 if first < self.world_triangle_count:
                     self._embree.add_triangles(list(mesh.vertex_motion), _kept(mesh.triangles, keep), first)
             for first, count, placements in self._prototype_ranges:
-                prototype = TriangleScene()
+                prototype = TriangleScene(self.build_quality)
                 if first in deforming:
                     mesh, keep = deforming[first]
                     prototype.add_triangles(list(mesh.vertex_motion), _kept(mesh.triangles, keep), 0)
@@ -209,13 +219,9 @@ class Accelerator:
         n_world = self.world_triangle_count
         points = []
         if n_world:
-            used = np.zeros(len(self.vertices), bool)
-            used[self.triangles[:n_world].reshape(-1)] = True
-            world = self.vertices[used]
-            points.append(np.stack([world.min(axis=0), world.max(axis=0)]).astype(np.float64))
+            points.append(np.stack(corner_bounds(self.vertices, self.triangles[:n_world])))
         for first, count, placements in self._prototype_ranges:
-            corners = self.vertices[np.unique(self.triangles[first:first + count])].astype(np.float64)
-            lo, hi = corners.min(axis=0), corners.max(axis=0)
+            lo, hi = corner_bounds(self.vertices, self.triangles[first:first + count])
             box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
             steps = np.concatenate(placements)
             points.append(np.einsum("sij,bj->sbi", steps[:, :, :3], box).reshape(-1, 3)
@@ -278,6 +284,13 @@ class Accelerator:
         return self._corners
 
     @property
+    def areas(self) -> np.ndarray:
+        """(T,) float64 triangle areas (computed on first use: only mesh lights read them)."""
+        if self._areas is None:
+            self._areas = 0.5 * doubled_areas(self.vertices, self.triangles)
+        return self._areas
+
+    @property
     def triangle_count(self) -> int:
         return len(self.triangles)
 
@@ -335,6 +348,24 @@ class Accelerator:
         placed = inst >= 0
         normals[placed] = np.einsum("kij,kj->ki", self.instance_normals[inst[placed]], normals[placed])
         return normals
+
+
+# Below this many camera samples per triangle, Embree's LOW build quality (a Morton-code BVH) is
+# used: measured on a 1M-triangle Suzanne (2-core VM), it builds in ~0.3x MEDIUM's time and traces
+# ~1.2x slower (the same hits, bit for bit; tests/native/test_accel_quality.py), so MEDIUM's
+# extra build time (~1 us a triangle) pays off only after some 10-30 rays a triangle -- a few per
+# camera sample.
+LOW_QUALITY_SAMPLES_PER_TRIANGLE = 4
+
+
+def build_quality(triangles: int, camera_samples: int | None) -> int:
+    """Embree build quality for a render of `camera_samples` (pixels x samples) over `triangles`:
+    Cycles' MEDIUM (bvh/embree.cpp BVHEmbree::build, static scenes), or LOW when the render traces
+    too few rays for MEDIUM's slower build to pay off (a big mesh at a low sample count, where
+    Cycles spends most of its time building too)."""
+    if camera_samples is not None and camera_samples < LOW_QUALITY_SAMPLES_PER_TRIANGLE * triangles:
+        return embree_library.BUILD_QUALITY_LOW
+    return embree_library.BUILD_QUALITY_MEDIUM
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

@@ -113,7 +113,9 @@ class Integrator:
     def __init__(self, scene: Scene):
         self.scene = scene
         self.settings = scene.settings
-        self.accel = Accelerator(scene.meshes, scene.materials)
+        film = scene.film
+        self.accel = Accelerator(scene.meshes, scene.materials,
+                                 camera_samples=int(film.width) * int(film.height) * max(int(scene.settings.samples), 1))
         self.lights = LightSet(scene, self.accel)
         self.media = MediaTable(scene, self.accel)
         self.camera = CameraModel(scene.camera, scene.film)

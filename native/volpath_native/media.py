@@ -22,8 +22,11 @@ _WALK_DIRECTION = np.array([0.5773, 0.5774, 0.5775]) / np.linalg.norm([0.5773, 0
 class MediaTable:
     def __init__(self, scene: Scene, accel: Accelerator):
         mat_medium = np.array([m.medium for m in scene.materials], dtype=np.int64).reshape(-1)
-        tri_medium = mat_medium[accel.material_ids] if len(mat_medium) else np.zeros(0, np.int64)
-        pairs = np.stack([accel.mesh_ids.astype(np.int64), tri_medium], axis=1)[tri_medium >= 0]
+        if np.any(mat_medium >= 0):
+            tri_medium = mat_medium[accel.material_ids]
+            pairs = np.stack([accel.mesh_ids.astype(np.int64), tri_medium], axis=1)[tri_medium >= 0]
+        else:  # no volume boundaries: no per-triangle temporaries
+            pairs = np.zeros((0, 2), np.int64)
         uniq = np.unique(pairs, axis=0) if len(pairs) else np.zeros((0, 2), np.int64)
         self.volume_medium = uniq[:, 1]
         self.n_volumes = len(uniq)

@@ -21,6 +21,7 @@ from typing import Optional, Union
 import numpy as np
 
 from .bsdfs.nodes import SurfaceNode
+from .triangle_geometry import normals_and_doubled_areas
 
 
 class SceneError(ValueError):
@@ -204,17 +205,6 @@ class Material:
 # ----------------------------------------------------------------------------------------------
 # Geometry
 # ----------------------------------------------------------------------------------------------
-TRIANGLE_CHUNK = 1 << 18  # triangles per block of array work: temporaries of a few MB
-
-
-def triangle_cross(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(k, 3) float64 (p1 - p0) x (p2 - p0) of triangles (k, 3) into vertices (V, 3)."""
-    p0 = vertices[triangles[:, 0]].astype(np.float64)
-    e1 = vertices[triangles[:, 1]] - p0
-    e2 = vertices[triangles[:, 2]] - p0
-    return np.cross(e1, e2)
-
-
 def padded_rows(values: np.ndarray, dtype=np.float32) -> np.ndarray:
     """values as a contiguous (N, 3) array whose memory extends at least 16 bytes past its end
     inside the same numpy allocation (Embree reads vertex buffers with 16-byte loads,
@@ -241,12 +231,8 @@ def _affine_rows(values, name: str, ndim: int) -> np.ndarray:
 
 
 def doubled_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(T,) float64 twice the area of each triangle, in chunks (no (T, 3, 3) float64 temporary)."""
-    out = np.empty(len(triangles))
-    for lo in range(0, len(triangles), TRIANGLE_CHUNK):
-        cross = triangle_cross(vertices, triangles[lo:lo + TRIANGLE_CHUNK])
-        out[lo:lo + len(cross)] = np.sqrt(np.einsum("ij,ij->i", cross, cross))
-    return out
+    """(T,) float64 twice the area of each triangle (one compiled pass, no temporaries)."""
+    return normals_and_doubled_areas(vertices, triangles, with_normals=False)[1]
 
 
 @dataclass
@@ -336,6 +322,20 @@ class Mesh:
         if self.corner_normal_motion is not None:
             normals = np.ascontiguousarray(self.corner_normal_motion, dtype=np.float32)
             self.corner_normal_motion = normals.reshape(normals.shape[0], -1, 3, 3) if normals.ndim >= 1 else normals
+        self._triangle_normals = None  # (vertices, triangles, normals, doubled areas): triangle_normals()
+
+    def triangle_normals(self) -> tuple:
+        """((T, 3) float64 unit geometric normals, (T,) float64 doubled areas) of the triangles,
+        computed once for these vertex and triangle arrays: validate() counts the degenerate
+        ones, the Accelerator keeps the rest and takes the normals over (release_triangle_normals)."""
+        cached = self._triangle_normals
+        if cached is None or cached[0] is not self.vertices or cached[1] is not self.triangles:
+            normals, lengths = normals_and_doubled_areas(self.vertices, self.triangles)
+            cached = self._triangle_normals = (self.vertices, self.triangles, normals, lengths)
+        return cached[2], cached[3]
+
+    def release_triangle_normals(self):
+        self._triangle_normals = None
 
     @property
     def instance_count(self) -> int:
@@ -385,7 +385,7 @@ class Mesh:
             raise SceneError(f"mesh '{self.name}': object_frame is not finite")
         warnings = self._validate_placement(n_tri)
         if n_tri:
-            n_degenerate = int(np.count_nonzero(doubled_areas(self.vertices, self.triangles) <= 1e-20))
+            n_degenerate = int(np.count_nonzero(self.triangle_normals()[1] <= 1e-20))
             if n_degenerate:
                 warnings.append(f"mesh '{self.name}': {n_degenerate} degenerate triangles ignored")
         return warnings

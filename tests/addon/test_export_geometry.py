@@ -238,6 +238,23 @@ def test_block_reads_match_blenders_loop_triangles(scene, shading):
     evaluated.to_mesh_clear()
 
 
+def test_triangle_corners_copied_from_blenders_array_match_foreach_get(scene):
+    """compat.triangle_corners copies the loop triangles from Blender's array (as_pointer); the
+    same corners as the per-item foreach_get, on the evaluated data the exporter reads in place."""
+    from addon import compat
+
+    obj = add_mesh(scene, "Sub")
+    obj.modifiers.new("Subdivision", "SUBSURF").levels = 3
+    obj.modifiers.new("Triangulate", "TRIANGULATE").quad_method = "SHORTEST_DIAGONAL"
+    mesh = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    mesh.calc_loop_triangles()
+    n = len(mesh.loop_triangles)
+    expected = np.empty(3 * n, np.int32)
+    mesh.loop_triangles.foreach_get("loops", expected)
+    corners = compat.triangle_corners(mesh, n)
+    np.testing.assert_array_equal(corners, expected)
+
+
 def test_a_scene_larger_than_memory_stops_naming_its_objects(scene, monkeypatch):
     """The export stops with a SceneError naming the largest objects before allocating what the
     triangles would need; the same scene exports with the memory it needs."""

@@ -7,7 +7,10 @@ exporting and building the BVH), peak resident memory above what the process hel
 render, and for VolPath the export (depsgraph -> arrays) and scene build (Accelerator: tables and
 Embree BVH) separately. Kernels are loaded before the clock starts.
 
-    python tests/benchmarks/bench_scene_load.py [--level 5] [--samples 1]
+    python tests/benchmarks/bench_scene_load.py [--level 5] [--samples 1] [--repeats 5]
+
+--repeats N runs both engines N times, alternating (the machine's load drifts), and reports the
+medians, each run's times and the median of the paired VolPath / Cycles ratios.
 
 With --instances N the mesh is one collection (Suzanne at --level; level 3 has 63k triangles)
 instanced N times on a grid by empties, inside a box of fog (issue 13: memory and time should grow
@@ -25,6 +28,8 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -134,33 +139,58 @@ def main(argv=None) -> int:
     parser.add_argument("--level", type=int, default=5)
     parser.add_argument("--samples", type=int, default=1)
     parser.add_argument("--instances", type=int, default=0)
+    parser.add_argument("--repeats", type=int, default=1, help="paired runs of both engines (medians reported)")
     parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
         print("RESULT " + json.dumps(child(args.child, args.level, args.samples, args.instances)), flush=True)
         os._exit(0)  # skip Blender's teardown
-    rows = {}
-    for engine in ("CYCLES", "VOLPATH"):
-        proc = subprocess.run([sys.executable, __file__, "--child", engine, "--level", str(args.level),
-                               "--samples", str(args.samples),
-                               "--instances", str(args.instances)], capture_output=True, text=True)
-        line = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")]
-        if proc.returncode != 0 or not line:
-            print(f"{engine} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
-            return 1
-        rows[engine] = json.loads(line[0][len("RESULT "):])
+    samples = {"CYCLES": [], "VOLPATH": []}
+    loads = []
+    for _ in range(args.repeats):  # paired: both engines in each round, the load noted per round
+        loads.append(os.getloadavg()[0])
+        for engine in ("CYCLES", "VOLPATH"):
+            row = run_child(engine, args)
+            if row is None:
+                return 1
+            samples[engine].append(row)
+    rows = {engine: _medians(runs) for engine, runs in samples.items()}
     cycles, volpath = rows["CYCLES"], rows["VOLPATH"]
     n = volpath["triangles"]
     what = f"{args.instances} instances of " if args.instances else ""
-    print(f"{what}Suzanne, Subdivision level {args.level}: {n / 1e6:.2f}M triangles, 64x64, {args.samples} spp")
+    print(f"{what}Suzanne, Subdivision level {args.level}: {n / 1e6:.2f}M triangles, 64x64, {args.samples} spp; "
+          f"medians of {args.repeats} paired runs, load {min(loads):.1f}-{max(loads):.1f}")
+    if args.repeats > 1:
+        print("  each run, Cycles / VolPath seconds: " + ", ".join(
+            f"{c['seconds']:.2f}/{v['seconds']:.2f}" for c, v in zip(samples["CYCLES"], samples["VOLPATH"])))
     print(f"  Cycles : render {cycles['seconds']:.2f} s, peak +{cycles['peak_above_start'] / 1e6:.0f} MB "
           f"({cycles['peak_above_start'] / n:.0f} bytes/triangle)")
     print(f"  VolPath: render {volpath['seconds']:.2f} s (export {volpath.get('export', 0):.2f} s, "
           f"scene build {volpath.get('build', 0):.2f} s), peak +{volpath['peak_above_start'] / 1e6:.0f} MB "
           f"({volpath['peak_above_start'] / n:.0f} bytes/triangle)")
-    print(f"  VolPath / Cycles: time {volpath['seconds'] / cycles['seconds']:.2f}x, "
+    ratios = [v["seconds"] / c["seconds"] for c, v in zip(samples["CYCLES"], samples["VOLPATH"])]
+    print(f"  VolPath / Cycles: time {float(np.median(ratios)):.2f}x (median of the paired ratios), "
           f"memory {volpath['peak_above_start'] / max(cycles['peak_above_start'], 1):.2f}x")
     return 0
+
+
+def run_child(engine: str, args) -> dict | None:
+    proc = subprocess.run([sys.executable, __file__, "--child", engine, "--level", str(args.level),
+                           "--samples", str(args.samples),
+                           "--instances", str(args.instances)], capture_output=True, text=True)
+    line = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")]
+    if proc.returncode != 0 or not line:
+        print(f"{engine} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
+        return None
+    return json.loads(line[0][len("RESULT "):])
+
+
+def _medians(runs: list) -> dict:
+    out = dict(runs[0])
+    for key, value in runs[0].items():
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            out[key] = float(np.median([run[key] for run in runs]))
+    return out
 
 
 if __name__ == "__main__":
