@@ -59,7 +59,8 @@ class Accelerator:
                 copies = mesh.world_copies()  # a moving one as deforming copies (instance_motion.placed_motion)
                 if mesh.motion is not None:  # world_copies skips the singular instances
                     usable = np.nonzero(np.abs(np.linalg.det(mesh.instances[:, :, :3])) > 1e-30)[0]
-                    self._copy_motion.update({id(c): (mesh.instances[k], mesh.motion[k]) for c, k in zip(copies, usable)})
+                    self._copy_motion.update({id(copy): (mesh.instances[k], mesh.motion[k])
+                                              for copy, k in zip(copies, usable)})
                 world += copies
             else:
                 prototypes.append(mesh)

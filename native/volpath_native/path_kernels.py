@@ -600,7 +600,8 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
         pdf_t += (1.0 - prob_eq) * truncated_distance_pdf1(st, pc, tr, t_end)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
-    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t, F[p, TIME])
+    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t,
+                                                                    F[p, TIME])
     if S.mixed_phase and _phase_is_mixed(S, C, p):
         scattering, phase = _phase_mixture_eval(S, C, p, cos_theta)
     else:
@@ -979,7 +980,8 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
         pdf_t += (1.0 - prob_eq) * grid_nee_distance_pdf(G, o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, t)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
-    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t, F[p, TIME])
+    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t,
+                                                                    F[p, TIME])
     f, phase_pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, cos_theta)
     w = power_heuristic(light_pdf, phase_pdf) if light_pdf > 0.0 else 1.0
     contrib = _scale3(_mul3(_mul3(_mul3(beta, transmittance3(st, t)), f), value), w / pdf_t)

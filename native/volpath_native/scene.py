@@ -275,8 +275,8 @@ class Mesh:
         world space and the mesh appears once (what every exporter wrote before). Memory grows
         with the unique meshes, not with K. An emitting or medium-bounding instanced mesh is
         expanded into world copies (the light table and volume stacks index world triangles;
-        with `motion`, each copy deforms through its transform's steps). The exporter groups depsgraph object instances by
-        their evaluated mesh datablock (collection instances, particle/geometry-nodes instances
+        with `motion`, each copy deforms through its transform's steps). The exporter groups
+        depsgraph object instances by their evaluated mesh datablock (collection instances, particle/geometry-nodes instances
         and linked duplicates alike) and fills one Mesh per unique mesh with every
         instance.matrix_world[:3] (float64) here.
     motion: optional (K, S, 3, 4) float64 object -> world of every instance at S >= 2 shutter
