@@ -12,7 +12,7 @@ from agreement_checks import assert_engines_agree
 
 RUNS = 8
 SCENES = {"dof_fog_spot": ((32, 32), 256), "motion_blur_fog": ((32, 32), 256), "sun_window_equirect": ((48, 24), 256),
-          "moving_sphere_fog": ((32, 32), 256), "moving_emitter_fog": ((32, 32), 256)}
+          "moving_sphere_fog": ((32, 32), 256), "moving_emitter_fog": ((24, 24), 128)}
 
 
 @pytest.mark.agreement
