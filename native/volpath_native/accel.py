@@ -47,21 +47,25 @@ class Accelerator:
     the placed corners flips -- Cycles flips that cross product for negative scale) and its row in
     mesh_frames(). Instanced
     meshes whose materials emit or bound a medium are traced as world copies instead (the light
-    table and the volume stacks index world triangles)."""
+    table and the volume stacks index world triangles); moving ones as deforming world meshes
+    whose vertex steps follow the interpolated transform."""
 
     def __init__(self, meshes: list[Mesh], materials: list | None = None, camera_samples: int | None = None):
         """camera_samples: pixels x samples the render will trace, which picks Embree's build
         quality (build_quality); None: Cycles' MEDIUM."""
         world, prototypes = [], []
         self.warnings: list[str] = []
+        self._copy_motion = {}  # id(world copy of a moving instance) -> (its frame's transform, its steps)
         for mesh in meshes:
             if mesh.instances is None:
                 world.append(mesh)
             elif _must_flatten(mesh, materials):
-                world += mesh.world_copies()
-                if mesh.motion is not None:
-                    self.warnings.append(f"mesh '{mesh.name}': an emitting or medium-bounding object is rendered "
-                                         "without its object motion blur (not supported for those yet)")
+                copies = mesh.world_copies()  # a moving one as deforming copies (instance_motion.placed_motion)
+                if mesh.motion is not None:  # world_copies skips the singular instances
+                    usable = np.nonzero(np.abs(np.linalg.det(mesh.instances[:, :, :3])) > 1e-30)[0]
+                    self._copy_motion.update({id(copy): (mesh.instances[k], mesh.motion[k])
+                                              for copy, k in zip(copies, usable)})
+                world += copies
             else:
                 prototypes.append(mesh)
         # static world meshes share one Embree geometry; deforming ones get their own (time steps)
@@ -202,6 +206,7 @@ class Accelerator:
             first += count
         self._prototype_ranges = ranges
         self._instance_frames = frame_rows
+        self._placements = placements
         self.instance_count = len(transforms)
         self.instance_transforms = np.ascontiguousarray(np.reshape(transforms, (-1, 3, 4)), dtype=np.float64)
         normals = np.zeros((max(self.instance_count, 1), 3, 3))
@@ -265,6 +270,23 @@ class Accelerator:
                   for mesh_index, ks in self._instance_frames]
         return np.ascontiguousarray(np.concatenate([np.stack(frames)] + placed), dtype=np.float64)
 
+    def frame_motion(self) -> tuple:
+        """For the rows of mesh_frames(): (steps (R,) int64, decomposed steps (R, S, 16) as
+        instance_motion.motion_table, (R, 3, 4) the object -> world each row's frame was made
+        with). Rows of moving instances and of world copies of moving instances have steps > 1:
+        their world -> object at a ray's time is the row's frame o placed o M(t)^-1 (Cycles reads a
+        moving object's inverse transform at the shutter time: kernel/geom/object.h
+        object_fetch_transform_motion_test, used for Texture Coordinate Object)."""
+        placed, steps = [], []
+        for mesh in self._meshes or [None]:
+            transform, path = self._copy_motion.get(id(mesh), (np.eye(4)[:3], None))
+            placed.append(transform)
+            steps.append(path if path is not None else transform[None])
+        placed += [self.instance_transforms[k] for k in range(self.instance_count)]
+        steps += list(self._placements)
+        counts, table = motion_table(steps)
+        return counts, table, np.ascontiguousarray(np.reshape(placed, (-1, 3, 4)), dtype=np.float64)
+
     @property
     def instance_frame_base(self) -> int:
         """Row of instance 0 in mesh_frames()."""
@@ -309,6 +331,48 @@ class Accelerator:
         t = t.astype(np.float64)
         t[prim < 0] = np.inf
         return Hits(t, prim, u, v, inst)
+
+    def intersect_at(self, origins: np.ndarray, directions: np.ndarray, times: np.ndarray) -> Hits:
+        """Closest hit of each ray (origins, unit directions (N,3)) at its shutter time in [0, 1]."""
+        n = len(origins)
+        o = np.ascontiguousarray(origins, dtype=np.float32)
+        d = np.ascontiguousarray(directions, dtype=np.float32)
+        hits = self.intersect_raw(o, d, np.full(n, 1e37, np.float32), np.ascontiguousarray(times, np.float32))
+        t = hits.t.astype(np.float64)
+        t[hits.prim < 0] = np.inf
+        return Hits(t, hits.prim, hits.u, hits.v, hits.inst)
+
+    def corners_at(self, prim: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """(k, 3, 3) float64 corners of triangles `prim` at shutter times (deforming ones
+        interpolated between their steps, motion_triangles.deform_step; others their frame's)."""
+        corners = self.triangle_corners(prim)
+        if not self.has_deformation:
+            return corners
+        rows = self.deform_rows[prim]
+        moving = rows[:, 0] >= 0
+        if np.any(moving):
+            row, steps, stride = rows[moving, 0], rows[moving, 1], rows[moving, 2]
+            time = np.asarray(times, np.float64).reshape(-1)[moving] if np.ndim(times) else np.full(len(row), times)
+            step = np.clip((time * (steps - 1)).astype(np.int64), 0, steps - 2)
+            t = np.clip(time * (steps - 1) - step, 0.0, 1.0)[:, None, None]
+            a, b = row + step * stride, row + (step + 1) * stride
+            corners[moving] = (1.0 - t) * self.deform_corners[a] + t * self.deform_corners[b]
+        return corners
+
+    def normals_at(self, prim: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """Outward unit geometric normals of world triangles `prim` at shutter times."""
+        c = self.corners_at(prim, times)
+        return _unit(np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]))
+
+    def swept_bounds(self, prim: np.ndarray, low: np.ndarray, high: np.ndarray) -> tuple:
+        """(low, high) per triangle widened by its corners at every deformation step."""
+        low, high = low.copy(), high.copy()
+        rows = self.deform_rows[prim]
+        for i in np.nonzero(rows[:, 0] >= 0)[0]:
+            row, steps, stride = rows[i, :3]
+            c = self.deform_corners[row + stride * np.arange(steps)].reshape(-1, 3)
+            low[i], high[i] = np.minimum(low[i], c.min(axis=0)), np.maximum(high[i], c.max(axis=0))
+        return low, high
 
     def intersect_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray, times=None) -> Hits:
         """Closest hits for contiguous float32 rays as the compiled stages use them: t is Embree's

@@ -137,8 +137,10 @@ class Integrator:
         # camera and the near clip plane (Cycles' is_inside_volume test on the viewplane bounds,
         # scene/camera.cpp device_update_volume); orthographic rays start from different points.
         # A lens, a panoramic camera or camera motion moves the origins too: near_bounds holds them all.
+        # Moving volume boundaries: each path's stack at its own shutter time (Cycles walks with
+        # the camera ray's time).
         self._stack_per_path = bool(self.media.n_volumes) and (
-            scene.camera.projection == "orthographic"
+            scene.camera.projection == "orthographic" or self.media.boundaries_move
             or self.media.boundary_meets_box(*self.camera.near_bounds(self.filter.support + 1.0)))
         self._camera_stack = self.media.empty_stack(1)[0]
         if self.media.n_volumes and not self._stack_per_path:
@@ -178,7 +180,7 @@ class Integrator:
                                 np.ascontiguousarray(sample, np.int64), self._camera_stack, F, I, K, C, o32, d32,
                                 t32, alive)
         if self._stack_per_path:
-            C[:] = self.media.stack_at(F[:, pk.O:pk.O + 3])
+            C[:] = self.media.stack_at(F[:, pk.O:pk.O + 3], F[:, pk.TIME])
             pk.initial_coefficients(self.tables, C, F, n)
         live = pk.compact(F, I, K, C, n, alive, o32, d32, t32) if unseen else n
         return F, I, K, C, o32, d32, t32, live

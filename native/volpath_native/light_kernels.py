@@ -13,6 +13,7 @@ import numpy as np
 
 from .jit import inline_stage_kernel, stage_kernel
 from .mis import mis_weight
+from .motion_triangles import deformed_corners1, is_deforming
 from .sampling import concentric_disk1, local_to_world1, uniform_cone1, uniform_sphere1
 
 POINT, SPHERE, DISK, AREA_RECT, AREA_ELLIPSE, SUN, TRIANGLE, WORLD = range(8)
@@ -35,6 +36,8 @@ LightTables = namedtuple("LightTables", [
     "select_cdf",      # (n,) cumulative select_prob, last entry 1
     "corners",         # (T,3,3) all triangles of the scene
     "row_of_triangle",  # (T,) int64 light row of each triangle, -1 if not emissive
+    "deform_rows",     # accel's deformation tables: moving emissive triangles at a ray's time
+    "deform_corners",  # (motion_triangles.py)
     "hittable_rows",   # (H,) int64 lamps a ray can hit (sphere, soft point disk, area)
     "sun_rows",        # (S,) int64 suns with a cone (angle > 0)
     "world_row",       # int, -1 without a world emitter
@@ -178,13 +181,13 @@ def _sample_sphere(T, row, px, py, pz, u1, u2):
 
 
 @stage_kernel
-def _sample_surface_point(T, row, px, py, pz, yx, yy, yz, one_sided):
-    """Point y sampled uniformly by area on a flat emitter: area pdf converted to solid angle,
-    dist^2 / (cos_light * area) (Cycles kernel/light/area.h, triangle.h)."""
+def _sample_surface_point(T, row, px, py, pz, yx, yy, yz, one_sided, nx, ny, nz, area):
+    """Point y sampled uniformly by area on a flat emitter (unit normal n, area): area pdf
+    converted to solid angle, dist^2 / (cos_light * area) (Cycles kernel/light/area.h, triangle.h)."""
     wx, wy, wz, dist = _unit(yx - px, yy - py, yz - pz)
-    cos_l = -(T.normal[row, 0] * wx + T.normal[row, 1] * wy + T.normal[row, 2] * wz)
+    cos_l = -(nx * wx + ny * wy + nz * wz)
     cos_eff = max(cos_l, 0.0) if one_sided else abs(cos_l)
-    pdf = dist * dist / max(cos_eff * T.area[row], 1e-30) if cos_eff > 1e-12 else 0.0
+    pdf = dist * dist / max(cos_eff * area, 1e-30) if cos_eff > 1e-12 else 0.0
     s = 1.0 / max(pdf, 1e-30) if pdf > 0.0 else 0.0
     return wx, wy, wz, dist, T.strength[row, 0] * s, T.strength[row, 1] * s, T.strength[row, 2] * s, pdf
 
@@ -200,7 +203,8 @@ def _sample_area(T, row, px, py, pz, u1, u2, ellipse):
     yx = T.position[row, 0] + T.axis_u[row, 0] * x + T.axis_v[row, 0] * y
     yy = T.position[row, 1] + T.axis_u[row, 1] * x + T.axis_v[row, 1] * y
     yz = T.position[row, 2] + T.axis_u[row, 2] * x + T.axis_v[row, 2] * y
-    return _sample_surface_point(T, row, px, py, pz, yx, yy, yz, True)
+    return _sample_surface_point(T, row, px, py, pz, yx, yy, yz, True, T.normal[row, 0], T.normal[row, 1],
+                                 T.normal[row, 2], T.area[row])
 
 
 @stage_kernel
@@ -212,15 +216,48 @@ def triangle_sample_barycentrics(u1, u2):
 
 
 @stage_kernel
-def _sample_triangle(T, row, px, py, pz, u1, u2):
-    """Emissive triangle, uniform by area (Cycles kernel/light/triangle.h area sampling)."""
+def _sample_triangle(T, row, px, py, pz, u1, u2, time):
+    """Emissive triangle, uniform by area (Cycles kernel/light/triangle.h area sampling); a moving
+    one where it is at the ray's shutter time, with its normal and area then (Cycles
+    triangle_light_sample: triangle_world_space_vertices at the time; the selection stays by the
+    frame's area, as Cycles' distribution_area at a fixed time)."""
     b1, b2 = triangle_sample_barycentrics(u1, u2)
     b0 = 1.0 - b1 - b2
-    c = T.corners[T.triangle[row]]
-    yx = c[0, 0] * b0 + c[1, 0] * b1 + c[2, 0] * b2
-    yy = c[0, 1] * b0 + c[1, 1] * b1 + c[2, 1] * b2
-    yz = c[0, 2] * b0 + c[1, 2] * b1 + c[2, 2] * b2
-    return _sample_surface_point(T, row, px, py, pz, yx, yy, yz, not T.two_sided[row])
+    prim = T.triangle[row]
+    if is_deforming(T.deform_rows, prim):
+        c0x, c0y, c0z, c1x, c1y, c1z, c2x, c2y, c2z = deformed_corners1(T.deform_rows, T.deform_corners, prim, time)
+        nx, ny, nz, area = _triangle_normal_area(c0x, c0y, c0z, c1x, c1y, c1z, c2x, c2y, c2z)
+    else:
+        c = T.corners[prim]
+        c0x, c0y, c0z, c1x, c1y, c1z, c2x, c2y, c2z = (c[0, 0], c[0, 1], c[0, 2], c[1, 0], c[1, 1], c[1, 2],
+                                                       c[2, 0], c[2, 1], c[2, 2])
+        nx, ny, nz, area = T.normal[row, 0], T.normal[row, 1], T.normal[row, 2], T.area[row]
+    yx = c0x * b0 + c1x * b1 + c2x * b2
+    yy = c0y * b0 + c1y * b1 + c2y * b2
+    yz = c0z * b0 + c1z * b1 + c2z * b2
+    return _sample_surface_point(T, row, px, py, pz, yx, yy, yz, not T.two_sided[row], nx, ny, nz, area)
+
+
+@stage_kernel
+def _triangle_normal_area(c0x, c0y, c0z, c1x, c1y, c1z, c2x, c2y, c2z):
+    """Unit normal (counter-clockwise corners: outward) and area of a triangle."""
+    e1x, e1y, e1z = c1x - c0x, c1y - c0y, c1z - c0z
+    e2x, e2y, e2z = c2x - c0x, c2y - c0y, c2z - c0z
+    x, y, z = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    length = np.sqrt(x * x + y * y + z * z)
+    inverse = 1.0 / max(length, 1e-30)
+    return x * inverse, y * inverse, z * inverse, 0.5 * length
+
+
+@stage_kernel
+def moving_triangle_normal_area(T, prim, time):
+    """(unit normal, area) of emissive triangle prim at shutter time `time` (its frame's when it
+    does not move)."""
+    if is_deforming(T.deform_rows, prim):
+        c0x, c0y, c0z, c1x, c1y, c1z, c2x, c2y, c2z = deformed_corners1(T.deform_rows, T.deform_corners, prim, time)
+        return _triangle_normal_area(c0x, c0y, c0z, c1x, c1y, c1z, c2x, c2y, c2z)
+    row = T.row_of_triangle[prim]
+    return T.normal[row, 0], T.normal[row, 1], T.normal[row, 2], T.area[row]
 
 
 @stage_kernel
@@ -250,8 +287,9 @@ def _sample_world(T, row, u1, u2):
 
 
 @inline_stage_kernel
-def sample_light(T, row, px, py, pz, u1, u2):
-    """Sample light `row` as seen from p: (wx, wy, wz, dist, vr, vg, vb, pdf) with w the unit
+def sample_light(T, row, px, py, pz, u1, u2, time):
+    """Sample light `row` as seen from p at shutter time `time` (moving emissive triangles move;
+    lamps do not, as in Cycles): (wx, wy, wz, dist, vr, vg, vb, pdf) with w the unit
     direction to the light, dist the distance to the sampled point (inf for distant lights),
     v = emitted radiance / pdf (intensity / d^2 for delta lights) divided by the selection
     probability, pdf = solid-angle pdf times the selection probability (0 for delta lights)."""
@@ -265,7 +303,7 @@ def sample_light(T, row, px, py, pz, u1, u2):
     elif k == AREA_RECT or k == AREA_ELLIPSE:
         wx, wy, wz, dist, vr, vg, vb, pdf = _sample_area(T, row, px, py, pz, u1, u2, k == AREA_ELLIPSE)
     elif k == TRIANGLE:
-        wx, wy, wz, dist, vr, vg, vb, pdf = _sample_triangle(T, row, px, py, pz, u1, u2)
+        wx, wy, wz, dist, vr, vg, vb, pdf = _sample_triangle(T, row, px, py, pz, u1, u2, time)
     elif k == SUN:
         wx, wy, wz, dist, vr, vg, vb, pdf = _sample_sun(T, row, u1, u2)
     elif k == WORLD:
@@ -285,9 +323,10 @@ def sample_light(T, row, px, py, pz, u1, u2):
 # Evaluation of emitters found by BSDF / phase sampling (for MIS against light sampling)
 # ---------------------------------------------------------------------------------------------
 @stage_kernel
-def triangle_emission(T, prim, ox, oy, oz, dx, dy, dz, t, front):
+def triangle_emission(T, prim, ox, oy, oz, dx, dy, dz, t, front, time):
     """Radiance and light-sampling pdf (solid angle, incl. selection) of triangle `prim` hit at
-    distance t along the unit ray o + t d from the previous vertex o; zeros if prim does not
+    distance t along the unit ray o + t d from the previous vertex o at shutter time `time` (a
+    moving triangle's normal and area then: Cycles triangle_light_pdf); zeros if prim does not
     emit. Two-sided unless the material says otherwise (Cycles closure/emissive.h)."""
     if prim < 0 or prim >= T.row_of_triangle.shape[0]:
         return 0.0, 0.0, 0.0, 0.0
@@ -295,8 +334,9 @@ def triangle_emission(T, prim, ox, oy, oz, dx, dy, dz, t, front):
     if row < 0:
         return 0.0, 0.0, 0.0, 0.0
     visible = 1.0 if (T.two_sided[row] or front) else 0.0
-    cos_l = abs(T.normal[row, 0] * dx + T.normal[row, 1] * dy + T.normal[row, 2] * dz)
-    pdf = T.select_prob[row] * t * t / max(cos_l * T.area[row], 1e-30)
+    nx, ny, nz, area = moving_triangle_normal_area(T, prim, time)
+    cos_l = abs(nx * dx + ny * dy + nz * dz)
+    pdf = T.select_prob[row] * t * t / max(cos_l * area, 1e-30)
     return T.strength[row, 0] * visible, T.strength[row, 1] * visible, T.strength[row, 2] * visible, pdf
 
 
@@ -408,17 +448,17 @@ def has_position_many(T, rows, out):
 
 
 @stage_kernel
-def sample_many(T, rows, p, u1, u2, wi, dist, value, pdf):
+def sample_many(T, rows, p, u1, u2, times, wi, dist, value, pdf):
     for i in range(rows.shape[0]):
         (wi[i, 0], wi[i, 1], wi[i, 2], dist[i], value[i, 0], value[i, 1], value[i, 2],
-         pdf[i]) = sample_light(T, rows[i], p[i, 0], p[i, 1], p[i, 2], u1[i], u2[i])
+         pdf[i]) = sample_light(T, rows[i], p[i, 0], p[i, 1], p[i, 2], u1[i], u2[i], times[i])
 
 
 @stage_kernel
-def triangle_emission_many(T, prim, o, d, t, front, radiance, pdf):
+def triangle_emission_many(T, prim, o, d, t, front, times, radiance, pdf):
     for i in range(prim.shape[0]):
         radiance[i, 0], radiance[i, 1], radiance[i, 2], pdf[i] = triangle_emission(
-            T, prim[i], o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], t[i], front[i])
+            T, prim[i], o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], t[i], front[i], times[i])
 
 
 @stage_kernel

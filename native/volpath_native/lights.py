@@ -139,6 +139,10 @@ class LightSet:
         self.hittable_rows = self.hittable_rows[self.hittable_rows < self.n_lamps]
         self.sun_rows = np.nonzero((self.kind == SUN) & (self.cos_half < 1.0))[0]
         self.world_row = n - 1 if n and self.kind[-1] == WORLD else -1
+        # moving emissive triangles are sampled at a ray's time from accel's deformation tables
+        moving = n_tri and accel.has_deformation and bool(np.any(accel.deform_rows[self.emissive_tris, 0] >= 0))
+        self._deform_rows = accel.deform_rows if moving else np.full((1, 4), -1, np.int64)
+        self._deform_corners = accel.deform_corners if moving else np.zeros((1, 3, 3), np.float32)
         self.tables = self._tables()
 
     def _tables(self) -> LightTables:
@@ -160,7 +164,8 @@ class LightSet:
             spot_smooth=f64(self.spot_smooth), two_sided=flag(self.two_sided), triangle=i64(self.triangle),
             camera_visible=flag(self.camera_visible), select_prob=f64(self.select_prob),
             select_cdf=f64(self.select_cdf), corners=f64(self.corners).reshape(-1, 3, 3),
-            row_of_triangle=i64(self.row_of_triangle), hittable_rows=i64(self.hittable_rows),
+            row_of_triangle=i64(self.row_of_triangle), deform_rows=self._deform_rows,
+            deform_corners=self._deform_corners, hittable_rows=i64(self.hittable_rows),
             sun_rows=i64(self.sun_rows), world_row=int(self.world_row),
             world_radiance=f64(self.world_radiance).reshape(3), count=int(self.count))
 
@@ -227,21 +232,25 @@ class LightSet:
         has_position_many(self.tables, rows, out)
         return out
 
-    def sample(self, rows: np.ndarray, p: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> LightSample:
-        """Sample a point/direction on light `rows[i]` as seen from p[i] (light_kernels.sample_light)."""
+    def sample(self, rows: np.ndarray, p: np.ndarray, u1: np.ndarray, u2: np.ndarray, times=0.5) -> LightSample:
+        """Sample a point/direction on light `rows[i]` as seen from p[i] at shutter time times[i]
+        (light_kernels.sample_light)."""
         rows = _i64(rows)
         n = len(rows)
         wi, dist, value, pdf = np.empty((n, 3)), np.empty(n), np.empty((n, 3)), np.empty(n)
-        sample_many(self.tables, rows, _f64(p).reshape(n, 3), _f64(u1), _f64(u2), wi, dist, value, pdf)
+        sample_many(self.tables, rows, _f64(p).reshape(n, 3), _f64(u1), _f64(u2), _f64(np.broadcast_to(times, (n,))),
+                    wi, dist, value, pdf)
         return LightSample(wi, dist, value, pdf)
 
-    def triangle_emission(self, prim, origins, directions, t, front):
-        """Radiance and light-sampling pdf (solid angle, incl. selection) of emissive triangles hit."""
+    def triangle_emission(self, prim, origins, directions, t, front, times=0.5):
+        """Radiance and light-sampling pdf (solid angle, incl. selection) of emissive triangles hit
+        (at shutter times `times`)."""
         prim = _i64(prim)
         n = len(prim)
         radiance, pdf = np.empty((n, 3)), np.empty(n)
         triangle_emission_many(self.tables, prim, _f64(origins).reshape(n, 3), _f64(directions).reshape(n, 3),
-                               _f64(t), np.ascontiguousarray(front, dtype=bool), radiance, pdf)
+                               _f64(t), np.ascontiguousarray(front, dtype=bool), _f64(np.broadcast_to(times, (n,))),
+                               radiance, pdf)
         return radiance, pdf
 
     def escaped_emission(self, directions):

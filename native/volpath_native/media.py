@@ -95,19 +95,32 @@ class MediaTable:
         for sigma_s, g in world_lobes:
             self._world_lobe_sigma[int(np.searchsorted(self.phase_g_values, g))] += sigma_s
 
+    @property
+    def boundaries_move(self) -> bool:
+        """Whether some volume boundary moves during the shutter (a deforming or moving mesh)."""
+        accel = self.accel
+        return bool(accel.has_deformation and np.any(accel.deform_rows[self.tri_volume >= 0, 0] >= 0))
+
     def boundary_meets_box(self, lo: np.ndarray, hi: np.ndarray) -> bool:
-        """Whether the bounding box of some volume boundary triangle overlaps the box [lo, hi]
-        (conservative: False means no boundary passes through the box)."""
-        corners = self.accel.triangle_corners(np.nonzero(self.tri_volume >= 0)[0])
+        """Whether the bounding box of some volume boundary triangle (over the shutter, for moving
+        ones) overlaps the box [lo, hi] (conservative: False means no boundary passes through the
+        box)."""
+        boundary = np.nonzero(self.tri_volume >= 0)[0]
+        corners = self.accel.triangle_corners(boundary)
         if len(corners) == 0:
             return False
+        low, high = corners.min(axis=1), corners.max(axis=1)
+        if self.boundaries_move:
+            low, high = self.accel.swept_bounds(boundary, low, high)
         pad = self.accel.epsilon
-        overlap = (corners.min(axis=1) <= hi + pad) & (corners.max(axis=1) >= lo - pad)
+        overlap = (low <= hi + pad) & (high >= lo - pad)
         return bool(np.any(overlap.all(axis=1)))
 
-    def stack_at(self, points: np.ndarray, max_crossings: int = 256) -> np.ndarray:
+    def stack_at(self, points: np.ndarray, times=None, max_crossings: int = 256) -> np.ndarray:
         """Volume-stack counters for arbitrary points, by walking a ray to infinity and counting
-        boundary crossings (Cycles does the same for the camera: volume_stack_init)."""
+        boundary crossings (Cycles does the same for the camera: volume_stack_init), at the
+        points' shutter times (None: the frame) when boundaries move (Cycles'
+        integrator_volume_stack_init walks with the camera ray's time)."""
         n = len(points)
         counts = np.zeros((n, max(self.n_volumes, 1)), dtype=np.int16)
         if not self.n_volumes or n == 0:
@@ -116,14 +129,21 @@ class MediaTable:
         dirs = np.broadcast_to(_WALK_DIRECTION, (n, 3)).copy()
         active = np.arange(n)
         eps = self.accel.epsilon
+        moving = self.boundaries_move
+        if moving:
+            times = np.full(n, 0.5, np.float32) if times is None else np.asarray(times, np.float32).reshape(n)
         for _ in range(max_crossings):
             if len(active) == 0:
                 break
-            hits = self.accel.intersect(origins[active], dirs[active])
+            if moving:
+                hits = self.accel.intersect_at(origins[active], dirs[active], times[active])
+            else:
+                hits = self.accel.intersect(origins[active], dirs[active])
             found = hits.prim >= 0
             active, prim, t = active[found], hits.prim[found], hits.t[found]
             vol = self.tri_volume[prim]
-            leaving = np.einsum("ij,ij->i", dirs[active], self.accel.normals[prim]) > 0
+            normals = self.accel.normals_at(prim, times[active]) if moving else self.accel.normals[prim]
+            leaving = np.einsum("ij,ij->i", dirs[active], normals) > 0
             m = vol >= 0
             np.add.at(counts, (active[m], vol[m]), np.where(leaving[m], 1, -1).astype(np.int16))
             origins[active] = origins[active] + dirs[active] * (t + eps)[:, None]

@@ -44,7 +44,9 @@ from .mis import mis_weight, power_heuristic
 from .phase import hg_eval1, hg_sample1
 from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, LENS_U_DIM, LENS_V_DIM, SHUTTER_TIME_DIM, path_key1, uniform1
 from .instance_motion import normal_map1
-from .surface_programs import has_program_emission, program_emission, program_shading_normal, shade_surface_program
+from .motion_triangles import deform_step, deformed_corners1, is_deforming
+from .surface_programs import (frame_at_time, has_program_emission, program_emission, program_shading_normal,
+                               shade_surface_program)
 
 # F columns
 O, D, BETA, PREV = 0, 3, 6, 9
@@ -557,13 +559,14 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
 
 
 @inline_stage_kernel
-def _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t):
-    """The next-event vertex x = o + t d of a medium segment and a sample of light `row` from it:
-    (x, wi, dist, value, light pdf, cos(d, wi)), shared by homogeneous and grid NEE."""
+def _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t, time):
+    """The next-event vertex x = o + t d of a medium segment and a sample of light `row` from it
+    at the path's shutter time: (x, wi, dist, value, light pdf, cos(d, wi)), shared by
+    homogeneous and grid NEE."""
     x = (o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t)
     u1, u2 = _u(K, p, iteration, D_MED_LU), _u(K, p, iteration, D_MED_LV)
-    wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, x[0], x[1], x[2], u1, u2)
-    value = _textured_light_value(S, T, SP, SPS, row, u1, u2, (wx, wy, wz), (v0, v1, v2))
+    wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, x[0], x[1], x[2], u1, u2, time)
+    value = _textured_light_value(S, T, SP, SPS, row, u1, u2, (wx, wy, wz), (v0, v1, v2), time)
     return x, (wx, wy, wz), dist, value, light_pdf, d[0] * wx + d[1] * wy + d[2] * wz
 
 
@@ -597,7 +600,8 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
         pdf_t += (1.0 - prob_eq) * truncated_distance_pdf1(st, pc, tr, t_end)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
-    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t)
+    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t,
+                                                                    F[p, TIME])
     if S.mixed_phase and _phase_is_mixed(S, C, p):
         scattering, phase = _phase_mixture_eval(S, C, p, cos_theta)
     else:
@@ -662,22 +666,11 @@ def _geometric_normal(S, prim, inst, time):
     return x / length, y / length, z / length
 
 
-@inline_stage_kernel
-def _deform_step(rows, prim, time):
-    """(row of the step before `time`, row of the step after, weight of the latter) of a deforming
-    triangle (accel's deform_rows; Cycles geom/motion_triangle.h motion_triangle_vertices)."""
-    row, steps, stride = rows[prim, 0], rows[prim, 1], rows[prim, 2]
-    maxstep = steps - 1
-    step = min(max(np.int64(time * maxstep), 0), maxstep - 1)
-    t = min(max(time * maxstep - step, 0.0), 1.0)
-    return row + step * stride, row + (step + 1) * stride, t
-
-
 @stage_kernel  # calls, not inlined: only deforming meshes pay for this code
 def deformed_normal1(rows, c, prim, time):
     """Unit geometric normal of a deforming triangle at `time`: the cross product of its corners
     interpolated between the steps (outward for counter-clockwise corners)."""
-    a, b, t = _deform_step(rows, prim, time)
+    a, b, t = deform_step(rows, prim, time)
     p0x, p0y, p0z = (1.0 - t) * c[a, 0, 0] + t * c[b, 0, 0], (1.0 - t) * c[a, 0, 1] + t * c[b, 0, 1], \
         (1.0 - t) * c[a, 0, 2] + t * c[b, 0, 2]
     e1x, e1y, e1z = (1.0 - t) * c[a, 1, 0] + t * c[b, 1, 0] - p0x, (1.0 - t) * c[a, 1, 1] + t * c[b, 1, 1] - p0y, \
@@ -692,7 +685,7 @@ def deformed_normal1(rows, c, prim, time):
 @stage_kernel
 def deformed_shading_normal1(rows, dn, prim, time, w0, hu, hv):
     """Corner normals of a deforming triangle interpolated to `time`, then to (w0, hu, hv)."""
-    a, b, t = _deform_step(rows, prim, time)
+    a, b, t = deform_step(rows, prim, time)
     sx = (1.0 - t) * (dn[a, 0, 0] * w0 + dn[a, 1, 0] * hu + dn[a, 2, 0] * hv) \
         + t * (dn[b, 0, 0] * w0 + dn[b, 1, 0] * hu + dn[b, 2, 0] * hv)
     sy = (1.0 - t) * (dn[a, 0, 1] * w0 + dn[a, 1, 1] * hu + dn[a, 2, 1] * hv) \
@@ -703,9 +696,11 @@ def deformed_shading_normal1(rows, dn, prim, time, w0, hu, hv):
 
 
 @inline_stage_kernel
-def _frame_row(S, SP, prim, inst):
-    """The hit's object frame in SP.frames: its mesh's, or its instance's."""
-    return SP.tri_mesh[prim] if inst < 0 else S.inst_frame_base + inst
+def _frame_row(S, SP, SPS, prim, inst, time):
+    """The hit's object frame in SP.frames: its mesh's, or its instance's; -1 for a moving object,
+    whose frame at the ray's time is then in SPS.frame (surface_programs.frame_at_time) until
+    the next call."""
+    return frame_at_time(SP, SPS, SP.tri_mesh[prim] if inst < 0 else S.inst_frame_base + inst, time)
 
 
 @inline_stage_kernel
@@ -727,10 +722,11 @@ def _shading_normal(S, prim, inst, time, hu, hv, n_face):
 
 
 @inline_stage_kernel
-def _textured_light_value(S, T, SP, SPS, row, u1, u2, w, value):
+def _textured_light_value(S, T, SP, SPS, row, u1, u2, w, value, time):
     """A light sample's value, times the emitter's radiance at the sampled point when the light is
     a triangle whose material's emission is a surface program (unit strength in the light table,
-    surface_programs.py); the pdf is unchanged. w: unit direction to the light."""
+    surface_programs.py); the pdf is unchanged. w: unit direction to the light; a moving emitter
+    is evaluated where it is at the shutter time `time`."""
     if T.kind[row] != TRIANGLE:
         return value
     prim = T.triangle[row]
@@ -738,18 +734,22 @@ def _textured_light_value(S, T, SP, SPS, row, u1, u2, w, value):
     if not has_program_emission(SP, material):
         return value
     hu, hv = triangle_sample_barycentrics(u1, u2)
-    c = T.corners[prim]
     w0 = 1.0 - hu - hv
-    y = (c[0, 0] * w0 + c[1, 0] * hu + c[2, 0] * hv, c[0, 1] * w0 + c[1, 1] * hu + c[2, 1] * hv,
-         c[0, 2] * w0 + c[1, 2] * hu + c[2, 2] * hv)
-    ng = (S.normals[prim, 0], S.normals[prim, 1], S.normals[prim, 2])
+    if is_deforming(S.deform_rows, prim):
+        c = deformed_corners1(S.deform_rows, S.deform_corners, prim, time)
+        y = (c[0] * w0 + c[3] * hu + c[6] * hv, c[1] * w0 + c[4] * hu + c[7] * hv, c[2] * w0 + c[5] * hu + c[8] * hv)
+    else:
+        k = T.corners[prim]
+        y = (k[0, 0] * w0 + k[1, 0] * hu + k[2, 0] * hv, k[0, 1] * w0 + k[1, 1] * hu + k[2, 1] * hv,
+             k[0, 2] * w0 + k[1, 2] * hu + k[2, 2] * hv)
+    ng = _geometric_normal(S, prim, -1, time)
     wi = (-w[0], -w[1], -w[2])  # from the emitter towards the shading point
     front = _dot3(wi, ng) > 0.0
     n_face = _scale3(ng, 1.0 if front else -1.0)
-    # emitters are traced as world triangles (accel._must_flatten): no instance; their static normals
-    ns = _shading_normal(S, prim, -1, 0.5, hu, hv, n_face)
-    e = program_emission(SP, SPS, material, prim, SP.tri_mesh[prim], hu, hv, y[0], y[1], y[2], ns, n_face, wi,
-                         not front)
+    # emitters are traced as world triangles (accel._must_flatten, moving ones deforming): no instance
+    ns = _shading_normal(S, prim, -1, time, hu, hv, n_face)
+    e = program_emission(SP, SPS, material, prim, _frame_row(S, SP, SPS, prim, -1, time), hu, hv, y[0], y[1], y[2],
+                         ns, n_face, wi, not front)
     return _mul3(value, e)
 
 
@@ -777,12 +777,12 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
     n_face = _scale3(ng, sign)  # geometric normal on the viewer's side
     ns = _shading_normal(S, prim, inst, F[p, TIME], hu, hv, n_face)
     wi_view = (-d[0], -d[1], -d[2])
-    frame = _frame_row(S, SP, prim, inst)
+    frame = _frame_row(S, SP, SPS, prim, inst, F[p, TIME])  # read before NEE (which may move SPS.frame)
     # emission (two-sided by default), MIS against the light-sampling pdf
     if S.tri_emissive[prim]:
         prev = _get3(F, p, PREV)
         r0, r1, r2, lpdf = triangle_emission(T, prim, prev[0], prev[1], prev[2], d[0], d[1], d[2],
-                                             F[p, TRAVELLED] + t, front)
+                                             F[p, TRAVELLED] + t, front, F[p, TIME])
         if has_program_emission(SP, S.tri_material[prim]):  # textured: unit strength x the program's
             e = program_emission(SP, SPS, S.tri_material[prim], prim, frame, hu, hv, pb[0], pb[1], pb[2], ns,
                                  n_face, wi_view, not front)
@@ -805,9 +805,10 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
     if T.count > 0:
         row = select_light(T, _u(K, p, iteration, D_SURF_SELECT))
         u1, u2 = _u(K, p, iteration, D_SURF_LU), _u(K, p, iteration, D_SURF_LV)
-        wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, above[0], above[1], above[2], u1, u2)
+        wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, above[0], above[1], above[2], u1, u2,
+                                                               F[p, TIME])
         wi = (wx, wy, wz)
-        v0, v1, v2 = _textured_light_value(S, T, SP, SPS, row, u1, u2, wi, (v0, v1, v2))
+        v0, v1, v2 = _textured_light_value(S, T, SP, SPS, row, u1, u2, wi, (v0, v1, v2), F[p, TIME])
         f, bsdf_pdf = surface_eval(CB, count, BT, wi_view, wi, ns, n_face)
         if _max3(f) > 0.0:
             w = power_heuristic(light_pdf, bsdf_pdf) if light_pdf > 0.0 else 1.0
@@ -979,7 +980,8 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
         pdf_t += (1.0 - prob_eq) * grid_nee_distance_pdf(G, o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, t)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
-    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t)
+    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t,
+                                                                    F[p, TIME])
     f, phase_pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, cos_theta)
     w = power_heuristic(light_pdf, phase_pdf) if light_pdf > 0.0 else 1.0
     contrib = _scale3(_mul3(_mul3(_mul3(beta, transmittance3(st, t)), f), value), w / pdf_t)
@@ -1043,7 +1045,7 @@ def shadow_step(S, GR, SN, BT, CB, SP, SPS, Q, m, hit_t, hit_prim, hit_inst, hit
                     x = _get3(SF, q, S_O)
                     t_hit = hit_t[q]
                     n_closure, tangent = shade_surface_program(
-                        SP, SPS, SN, row, prim, _frame_row(S, SP, prim, inst), hit_u[q], hit_v[q],
+                        SP, SPS, SN, row, prim, _frame_row(S, SP, SPS, prim, inst, SF[q, S_TIME]), hit_u[q], hit_v[q],
                         x[0] + d[0] * t_hit, x[1] + d[1] * t_hit, x[2] + d[2] * t_hit, ns, n_face, wi, not front)
                     nodes, row = SPS.nodes, 0
                 count = setup_surface_tangent(nodes, BT, row, wi, n_closure, n_face, not front, tangent, CB)

@@ -261,8 +261,8 @@ class Mesh:
         world space and the mesh appears once (what every exporter wrote before). Memory grows
         with the unique meshes, not with K. An emitting or medium-bounding instanced mesh is
         expanded into world copies (the light table and volume stacks index world triangles;
-        such a mesh with `motion` renders still, warned). The exporter groups depsgraph object instances by
-        their evaluated mesh datablock (collection instances, particle/geometry-nodes instances
+        with `motion`, each copy deforms through its transform's steps). The exporter groups
+        depsgraph object instances by their evaluated mesh datablock (collection instances, particle/geometry-nodes instances
         and linked duplicates alike) and fills one Mesh per unique mesh with every
         instance.matrix_world[:3] (float64) here.
     motion: optional (K, S, 3, 4) float64 object -> world of every instance at S >= 2 shutter
@@ -393,9 +393,10 @@ class Mesh:
     def world_copies(self) -> list["Mesh"]:
         """The mesh as world-space meshes: itself when not instanced, else one copy per instance
         (its transform at the frame; singular ones skipped) with normals transformed by the
-        inverse transpose and the object frame composed with the instance's inverse. What the
-        renderer traces for emissive instances' light sampling, and the reference of the
-        instancing tests."""
+        inverse transpose and the object frame composed with the instance's inverse; a moving
+        instance's copy deforms through its transform's steps (instance_motion.placed_motion).
+        What the renderer traces for emissive and medium-bounding instances (light sampling and
+        volume stacks index world triangles), and the reference of the instancing tests."""
         if self.instances is None:
             return [self]
         base = self.frame() if self.object_frame is None else self.object_frame
@@ -418,7 +419,14 @@ class Mesh:
             vertex_motion = None if self.vertex_motion is None else \
                 (self.vertex_motion.astype(np.float64) @ linear.T + offset).astype(np.float32)
             normal_motion = None
-            if self.corner_normal_motion is not None:
+            if self.motion is not None and not np.allclose(self.motion[k], self.motion[k, :1], rtol=0, atol=0):
+                # a moving instance: a deforming world mesh at steps of its interpolated transform
+                from .instance_motion import placed_motion
+                vertex_motion, normal_motion = placed_motion(self.motion[k], self.vertices, self.vertex_motion,
+                                                             self.corner_normals, self.corner_normal_motion)
+                if normal_motion is not None and np.linalg.det(linear) < 0:
+                    normal_motion = normal_motion[:, :, ::-1]
+            elif self.corner_normal_motion is not None:
                 normal_motion = self.corner_normal_motion.astype(np.float64) @ inverse
                 normal_motion /= np.maximum(np.linalg.norm(normal_motion, axis=3, keepdims=True), 1e-30)
                 if np.linalg.det(linear) < 0:

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .bsdfs.nodes import FLOAT_FIELDS, RGB_FIELDS, SurfaceNode, surface_node_table
+from .instance_motion import transform_at1
 from .jit import inline_stage_kernel, stage_kernel
 from .shading.images import empty_image_table
 from .shading.interpreter import run_program
@@ -202,13 +203,15 @@ SurfaceProgramTables = namedtuple("SurfaceProgramTables", [
     "corner",         # (n_tri, 3, channels) float32 per-corner attributes
     "tri_mesh",       # (n_tri,) int32 mesh of each triangle
     "frames",         # (n_meshes, 2, 3, 4) float64 world -> object, object -> generated per mesh
+    "frame_steps", "frame_motion", "frame_placed",  # moving objects' frames at a ray's time (accel.frame_motion)
     "no_grid", "no_world_to_index",  # the volume-only interpreter inputs, unused here
     "images",         # shading.images.ImageTable
 ])
 
 # Per-thread scratch: registers, the program's initial registers with the hit's inputs, and the
 # material's node rows with this hit's values.
-SurfaceScratch = namedtuple("SurfaceScratch", ["regs", "init", "nodes"])
+# frame: a moving object's frame at the hit's shutter time (frame_at_time), read for row -1.
+SurfaceScratch = namedtuple("SurfaceScratch", ["regs", "init", "nodes", "frame"])
 
 
 def surface_program_tables(materials, accel, images_table=None) -> SurfaceProgramTables:
@@ -270,6 +273,7 @@ def surface_program_tables(materials, accel, images_table=None) -> SurfaceProgra
         k += 1
     uv = channels.get(ACTIVE_UV, (-1, 0))[0]
     bumps = any(p.bump_offsets >= 0 for p in programs)
+    frame_steps, frame_motion, frame_placed = accel.frame_motion()
     return SurfaceProgramTables(
         any=bool(programs), mat_program=mat_program,
         code=np.concatenate(code).astype(np.int32) if code else np.zeros(1, np.int32),
@@ -284,7 +288,8 @@ def surface_program_tables(materials, accel, images_table=None) -> SurfaceProgra
         else np.zeros((1, 3, 3)),
         uv_channel=int(uv), corner=corner, tri_mesh=np.ascontiguousarray(accel.mesh_ids, np.int32)
         if len(accel.mesh_ids) else np.zeros(1, np.int32),
-        frames=accel.mesh_frames(), no_grid=np.zeros((1, 1, 1, 1), np.float32), no_world_to_index=np.zeros((3, 4)),
+        frames=accel.mesh_frames(), frame_steps=frame_steps, frame_motion=frame_motion, frame_placed=frame_placed,
+        no_grid=np.zeros((1, 1, 1, 1), np.float32), no_world_to_index=np.zeros((3, 4)),
         images=images_table if images_table is not None else empty_image_table())
 
 
@@ -298,7 +303,7 @@ def new_surface_scratch(materials, tables: SurfaceProgramTables) -> SurfaceScrat
             n_regs = max(n_regs, sp.program.n_registers)
             nodes = max(nodes, len(m.bsdf_nodes()))
     rows = surface_node_table([[SurfaceNode() for _ in range(nodes)]])
-    return SurfaceScratch(np.zeros(n_regs), np.zeros(n_regs), rows)
+    return SurfaceScratch(np.zeros(n_regs), np.zeros(n_regs), rows, np.zeros((2, 3, 4)))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -493,7 +498,42 @@ def _run_at_hit(SP, SS, k, prim, frame, hu, hv, px, py, pz, ns, ng, wi, backfaci
     if SP.prog_bump[k] >= 0:
         _bump_inputs(SP, init, k, prim, hu, hv, px, py, pz, ng)
     run_program(SP.code[SP.prog[k, 0]:SP.prog[k, 1]], init[:n_regs], SP.tables[t0:t1], SS.regs,
-                SP.frames[frame], SP.no_grid, SP.no_world_to_index, px, py, pz, SP.images)
+                SS.frame if frame < 0 else SP.frames[frame], SP.no_grid, SP.no_world_to_index, px, py, pz, SP.images)
+
+
+@stage_kernel
+def frame_at_time(SP, SS, frame, time):
+    """The hit's frame row, or -1 with SS.frame filled when the row's object moves: world ->
+    object at shutter time `time` = the row's frame o placed o M(time)^-1, M interpolated as
+    Cycles (instance_motion.transform_at1; Cycles object_fetch_transform_motion_test gives the
+    shader a moving object's inverse transform at the ray's time), object -> generated unchanged."""
+    if frame < 0 or SP.frame_steps[frame] < 2:
+        return frame
+    m, o = transform_at1(SP.frame_motion, SP.frame_steps[frame], frame, time)
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = m
+    c00, c01, c02 = m11 * m22 - m12 * m21, m12 * m20 - m10 * m22, m10 * m21 - m11 * m20
+    c10, c11, c12 = m02 * m21 - m01 * m22, m00 * m22 - m02 * m20, m01 * m20 - m00 * m21
+    c20, c21, c22 = m01 * m12 - m02 * m11, m02 * m10 - m00 * m12, m00 * m11 - m01 * m10
+    det = m00 * c00 + m01 * c01 + m02 * c02
+    if abs(det) < 1e-300:
+        return frame
+    inv = 1.0 / det  # M^-1 = adjugate / det, the adjugate the cofactors transposed
+    a = ((c00 * inv, c10 * inv, c20 * inv), (c01 * inv, c11 * inv, c21 * inv), (c02 * inv, c12 * inv, c22 * inv))
+    f = SP.frames[frame]
+    p = SP.frame_placed[frame]
+    for r in range(3):
+        # row r of (frame o placed): 3 linear coefficients and an offset
+        l0 = f[0, r, 0] * p[0, 0] + f[0, r, 1] * p[1, 0] + f[0, r, 2] * p[2, 0]
+        l1 = f[0, r, 0] * p[0, 1] + f[0, r, 1] * p[1, 1] + f[0, r, 2] * p[2, 1]
+        l2 = f[0, r, 0] * p[0, 2] + f[0, r, 1] * p[1, 2] + f[0, r, 2] * p[2, 2]
+        lo = f[0, r, 0] * p[0, 3] + f[0, r, 1] * p[1, 3] + f[0, r, 2] * p[2, 3] + f[0, r, 3]
+        # times M^-1 (x - o)
+        for c in range(3):
+            SS.frame[0, r, c] = l0 * a[0][c] + l1 * a[1][c] + l2 * a[2][c]
+        SS.frame[0, r, 3] = lo - (SS.frame[0, r, 0] * o[0] + SS.frame[0, r, 1] * o[1] + SS.frame[0, r, 2] * o[2])
+        for c in range(4):
+            SS.frame[1, r, c] = f[1, r, c]
+    return -1
 
 
 @stage_kernel

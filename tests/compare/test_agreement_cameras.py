@@ -1,6 +1,7 @@
 """Cameras against Cycles on scenes that need them (the criterion of test_agreement.py): depth of
 field in fog under a spot, camera motion blur in fog, an equirectangular view of a world volume,
-object motion blur (a moving instance beside a still one) in fog."""
+object motion blur (a moving instance beside a still one) in fog, a moving emissive panel in a
+drifting fog box."""
 import importlib
 
 import pytest
@@ -11,7 +12,7 @@ from agreement_checks import assert_engines_agree
 
 RUNS = 8
 SCENES = {"dof_fog_spot": ((32, 32), 256), "motion_blur_fog": ((32, 32), 256), "sun_window_equirect": ((48, 24), 256),
-          "moving_sphere_fog": ((32, 32), 256)}
+          "moving_sphere_fog": ((32, 32), 256), "moving_emitter_fog": ((24, 24), 128)}
 
 
 @pytest.mark.agreement
@@ -29,7 +30,7 @@ def _without_object_motion(native_scene):
 
 
 PLANTED = {"dof_fog_spot": dict(aperture_size=0.0), "motion_blur_fog": dict(motion_transforms=[]),
-           "moving_sphere_fog": _without_object_motion}
+           "moving_sphere_fog": _without_object_motion, "moving_emitter_fog": _without_object_motion}
 
 
 @pytest.mark.agreement

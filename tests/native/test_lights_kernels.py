@@ -75,7 +75,7 @@ def _points(lights, n, seed):
 @kernel
 def _sample_rows(T, rows, p, u1, u2, out):
     for i in range(rows.shape[0]):
-        out[i] = sample_light(T, rows[i], p[i, 0], p[i, 1], p[i, 2], u1[i], u2[i])
+        out[i] = sample_light(T, rows[i], p[i, 0], p[i, 1], p[i, 2], u1[i], u2[i], 0.5)
 
 
 @kernel
@@ -184,7 +184,7 @@ def _evaluate_samples(T, rows, p, wi, dist, out):
             # front: the ray arrives against the triangle's normal
             front = wi[i, 0] * T.normal[row, 0] + wi[i, 1] * T.normal[row, 1] + wi[i, 2] * T.normal[row, 2] < 0
             r, g, b, pdf = triangle_emission(T, T.triangle[row], p[i, 0], p[i, 1], p[i, 2],
-                                             wi[i, 0], wi[i, 1], wi[i, 2], dist[i], front)
+                                             wi[i, 0], wi[i, 1], wi[i, 2], dist[i], front, 0.5)
             out[i] = (dist[i], r, g, b, pdf)
         elif kind == SUN or kind == WORLD:
             r, g, b, pdf = distant_emission(T, row, wi[i, 0], wi[i, 1], wi[i, 2])
