@@ -75,9 +75,9 @@ def test_pdf_over_all_lights_sums_to_one_and_matches_the_selection(lights):
     opaque surface a branch whose bounds face the point may hold only lights behind it: there
     the selection finds no light (Cycles: light_tree_sample returns false), and the sum is 1
     minus exactly that chance (stratified draws measure it)."""
-    p, nrm, t, mode = _queries(240, 1)
+    p, nrm, t, mode = _queries(90, 1)
     rows = np.arange(lights.count)
-    draws = 2000
+    draws = 1000
     u_strata = (np.arange(draws) + 0.5) / draws
     for m in (MODE_SURFACE, MODE_SURFACE_TRANSMIT, MODE_VOLUME):
         k = mode == m
@@ -94,7 +94,7 @@ def test_pdf_over_all_lights_sums_to_one_and_matches_the_selection(lights):
             chosen, sel = lights.tree_select(u_strata, np.tile(pk[i], (draws, 1)), np.tile(nk[i], (draws, 1)),
                                              np.full(draws, tk[i]), m)
             found = chosen >= 0
-            assert abs(found.mean() - totals[i]) < 2e-3
+            assert abs(found.mean() - totals[i]) < 4e-3
             np.testing.assert_allclose(sel[found], lights.tree_pdf(chosen[found], np.tile(pk[i], (found.sum(), 1)),
                                                                    np.tile(nk[i], (found.sum(), 1)),
                                                                    np.full(found.sum(), tk[i]), m), rtol=1e-12)
