@@ -147,7 +147,10 @@ class LightSet:
         self.world_row = n - 1 if n and self.kind[-1] == WORLD else -1
         # per-point selection (Cycles' light tree; RenderSettings.light_tree, Cycles' use_light_tree)
         self.use_tree = bool(getattr(scene.settings, "light_tree", True))
-        self.tree = build_light_tree(self, enabled=self.use_tree)
+        # With a single emitter the tree can only pick it or nothing: the static selection gives the
+        # same image without the tree's cost per next event (measured: 1.5-1.8x the render time of
+        # a one-point-light fog box).
+        self.tree = build_light_tree(self, enabled=self.use_tree and int(np.count_nonzero(self.tree_energy > 0)) > 1)
         self.tables = self._tables()
 
     def _tables(self) -> LightTables:
