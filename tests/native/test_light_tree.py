@@ -178,3 +178,12 @@ def test_per_point_selection_renders_the_static_image():
     assert np.all(np.isfinite(tree.image))
     # and it pays: less variance over the image at the same sample count
     assert tree.variance.sum() < static.variance.sum()
+
+
+def test_per_point_selection_is_deterministic_across_threads_and_batches():
+    import dataclasses
+    scene = _fog_scene(True, 8)
+    a = render(scene)
+    scene.settings = dataclasses.replace(scene.settings, threads=2, batch_size=100)
+    b = render(scene)
+    np.testing.assert_array_equal(a.image, b.image)
