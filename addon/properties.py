@@ -36,6 +36,10 @@ class VolpathRenderSettings(bpy.types.PropertyGroup):
         items=[("MIS", "Multiple Importance", "Distance and equiangular sampling combined (Cycles' default)"),
                ("DISTANCE", "Distance", "Free-flight distance sampling"),
                ("EQUIANGULAR", "Equiangular", "Sample distances towards lights")])
+    use_light_tree: BoolProperty(
+        name="Light Tree", default=True,
+        description="Choose a light per shading point by distance and orientation (Cycles' light tree); "
+                    "off: by power alone, the same image with more noise where several lights compete")
     batch_size: IntProperty(name="Batch Size", default=1 << 16, min=1024, max=1 << 24,
                             description="Paths traced together (memory grows with it)")
     threads: IntProperty(name="Threads", default=0, min=0, max=1024,

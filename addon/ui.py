@@ -96,6 +96,7 @@ class VOLPATH_PT_render(VolpathPanel, bpy.types.Panel):
         col.prop(settings, "samples")
         col.prop(settings, "seed")
         col.prop(settings, "use_animated_seed")
+        layout.prop(settings, "use_light_tree")
 
 
 class VOLPATH_PT_light_paths(VolpathPanel, bpy.types.Panel):

@@ -70,10 +70,12 @@ class BounceLimits:
     transmission_bounces: int = 12
     volume_bounces: int = 0
     transparent_bounces: int = 8
+    light_tree: bool = True  # not a bounce limit: the light selection, matched as well
 
     @classmethod
     def from_settings(cls, settings) -> "BounceLimits":
-        return cls(**{name: int(getattr(settings, name)) for name in cls.__dataclass_fields__})
+        values = {name: int(getattr(settings, name)) for name in cls.__dataclass_fields__ if name != "light_tree"}
+        return cls(**values, light_tree=bool(getattr(settings, "light_tree", True)))
 
 
 @contextlib.contextmanager
@@ -92,6 +94,8 @@ def matched_settings(scene, bounces: BounceLimits, resolution: Optional[tuple] =
         snapshot.set(cycles, "sample_clamp_indirect", 0.0)
         # 0 disables probabilistic light-sample termination (unbiased either way, but noisier).
         snapshot.set(cycles, "light_sampling_threshold", 0.0)
+        # the same light selection as VolPath's (per-point light tree, or by power)
+        snapshot.set(cycles, "use_light_tree", bounces.light_tree)
         snapshot.set(cycles, "use_guiding", False)
         snapshot.set(cycles, "use_animated_seed", False)
         snapshot.set(cycles, "use_layer_samples", "IGNORE")

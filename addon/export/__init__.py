@@ -289,6 +289,7 @@ def export_settings(scene) -> vp.RenderSettings:
         volume_bounces=props.volume_bounces,
         transparent_bounces=props.transparent_bounces,
         volume_sampling=props.volume_sampling.lower(),
+        light_tree=bool(getattr(props, "use_light_tree", True)),
         russian_roulette_min_bounces=props.min_bounces_russian_roulette,
         batch_size=props.batch_size,
         threads=props.threads,

@@ -43,6 +43,7 @@ LightTables = namedtuple("LightTables", [
     "world_row",       # int, -1 without a world emitter
     "world_radiance",  # (3,)
     "count",           # int, number of rows
+    "tree",            # light_tree.LightTreeTables: per-point selection (or the static one above)
 ])
 
 _INF = np.inf
@@ -292,7 +293,14 @@ def sample_light(T, row, px, py, pz, u1, u2, time):
     lamps do not, as in Cycles): (wx, wy, wz, dist, vr, vg, vb, pdf) with w the unit
     direction to the light, dist the distance to the sampled point (inf for distant lights),
     v = emitted radiance / pdf (intensity / d^2 for delta lights) divided by the selection
-    probability, pdf = solid-angle pdf times the selection probability (0 for delta lights)."""
+    probability, pdf = solid-angle pdf times the selection probability (0 for delta lights);
+    the static selection by power (sample_light_selected takes any)."""
+    return sample_light_selected(T, row, T.select_prob[row], px, py, pz, u1, u2, time)
+
+
+@inline_stage_kernel
+def sample_light_selected(T, row, sel, px, py, pz, u1, u2, time):
+    """sample_light for a row chosen with probability sel (light_tree.tree_select)."""
     k = T.kind[row]
     if k == POINT:
         wx, wy, wz, dist, vr, vg, vb, pdf = _sample_point(T, row, px, py, pz)
@@ -310,7 +318,6 @@ def sample_light(T, row, px, py, pz, u1, u2, time):
         wx, wy, wz, dist, vr, vg, vb, pdf = _sample_world(T, row, u1, u2)
     else:
         wx, wy, wz, dist, vr, vg, vb, pdf = 0.0, 0.0, 1.0, _INF, 0.0, 0.0, 0.0, 0.0
-    sel = T.select_prob[row]
     if sel > 0.0:
         inv = 1.0 / sel
         vr, vg, vb = vr * inv, vg * inv, vb * inv
@@ -324,34 +331,46 @@ def sample_light(T, row, px, py, pz, u1, u2, time):
 # ---------------------------------------------------------------------------------------------
 @stage_kernel
 def triangle_emission(T, prim, ox, oy, oz, dx, dy, dz, t, front, time):
-    """Radiance and light-sampling pdf (solid angle, incl. selection) of triangle `prim` hit at
-    distance t along the unit ray o + t d from the previous vertex o at shutter time `time` (a
-    moving triangle's normal and area then: Cycles triangle_light_pdf); zeros if prim does not
-    emit. Two-sided unless the material says otherwise (Cycles closure/emissive.h)."""
+    """Radiance and light-sampling pdf (solid angle, incl. the static selection) of triangle
+    `prim` hit at distance t along the unit ray o + t d from the previous vertex o at shutter time
+    `time` (a moving triangle's normal and area then: Cycles triangle_light_pdf); zeros if prim
+    does not emit. Two-sided unless the material says otherwise (Cycles closure/emissive.h)."""
+    r, g, b, pdf, row = triangle_emission_unselected(T, prim, dx, dy, dz, t, front, time)
+    return r, g, b, (pdf * T.select_prob[row] if row >= 0 else 0.0)
+
+
+@stage_kernel
+def triangle_emission_unselected(T, prim, dx, dy, dz, t, front, time):
+    """triangle_emission without the selection probability: (r, g, b, solid-angle pdf, row)."""
     if prim < 0 or prim >= T.row_of_triangle.shape[0]:
-        return 0.0, 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, 0.0, np.int64(-1)
     row = T.row_of_triangle[prim]
     if row < 0:
-        return 0.0, 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, 0.0, np.int64(-1)
     visible = 1.0 if (T.two_sided[row] or front) else 0.0
     nx, ny, nz, area = moving_triangle_normal_area(T, prim, time)
     cos_l = abs(nx * dx + ny * dy + nz * dz)
-    pdf = T.select_prob[row] * t * t / max(cos_l * area, 1e-30)
-    return T.strength[row, 0] * visible, T.strength[row, 1] * visible, T.strength[row, 2] * visible, pdf
+    pdf = t * t / max(cos_l * area, 1e-30)
+    return T.strength[row, 0] * visible, T.strength[row, 1] * visible, T.strength[row, 2] * visible, pdf, row
 
 
 @stage_kernel
 def distant_emission(T, row, dx, dy, dz):
-    """Radiance and light pdf (incl. selection) of the world or a sun cone seen along unit d
-    (Cycles kernel/light/background.h, distant.h distant_light_intersect)."""
+    """Radiance and light pdf (incl. the static selection) of the world or a sun cone seen along
+    unit d (Cycles kernel/light/background.h, distant.h distant_light_intersect)."""
+    r, g, b, pdf = distant_emission_unselected(T, row, dx, dy, dz)
+    return r, g, b, pdf * T.select_prob[row]
+
+
+@stage_kernel
+def distant_emission_unselected(T, row, dx, dy, dz):
+    """distant_emission without the selection probability."""
     if T.kind[row] == WORLD:
-        return (T.world_radiance[0], T.world_radiance[1], T.world_radiance[2],
-                T.select_prob[row] / _FOUR_PI)
+        return T.world_radiance[0], T.world_radiance[1], T.world_radiance[2], 1.0 / _FOUR_PI
     cos_h = T.cos_half[row]
     if cos_h >= 1.0 or dx * T.normal[row, 0] + dy * T.normal[row, 1] + dz * T.normal[row, 2] < cos_h:
         return 0.0, 0.0, 0.0, 0.0
-    pdf = T.select_prob[row] / (2.0 * np.pi * (1.0 - cos_h))
-    return T.strength[row, 0], T.strength[row, 1], T.strength[row, 2], pdf
+    return T.strength[row, 0], T.strength[row, 1], T.strength[row, 2], 1.0 / (2.0 * np.pi * (1.0 - cos_h))
 
 
 @stage_kernel
@@ -379,8 +398,15 @@ def escaped_emission_mis(T, dx, dy, dz, prev_pdf, camera_ray):
 def lamp_crossing(T, k, ox, oy, oz, dx, dy, dz, tmin, tmax):
     """Lamp T.hittable_rows[k] crossed by the unit ray o + t d within (tmin, tmax]: (t, r, g, b,
     pdf), t = inf if missed; pdf is the light-sampling pdf from o (the previous scattering vertex)
-    incl. selection. Lamps do not block rays (Cycles integrator/shade_light.h). The caller checks
-    T.camera_visible itself."""
+    incl. the static selection. Lamps do not block rays (Cycles integrator/shade_light.h). The
+    caller checks T.camera_visible itself."""
+    t, r, g, b, pdf = lamp_crossing_unselected(T, k, ox, oy, oz, dx, dy, dz, tmin, tmax)
+    return t, r, g, b, pdf * T.select_prob[T.hittable_rows[k]]
+
+
+@stage_kernel
+def lamp_crossing_unselected(T, k, ox, oy, oz, dx, dy, dz, tmin, tmax):
+    """lamp_crossing without the selection probability."""
     row = T.hittable_rows[k]
     kind = T.kind[row]
     cx, cy, cz = T.position[row, 0], T.position[row, 1], T.position[row, 2]
@@ -428,8 +454,7 @@ def lamp_crossing(T, k, ox, oy, oz, dx, dy, dz, tmin, tmax):
         pdf = t * t / max(abs(cos_l) * T.area[row], 1e-30)
     if not (t > tmin and t <= tmax) or t == _INF:
         return _INF, 0.0, 0.0, 0.0, 0.0
-    return (t, T.strength[row, 0] * mask, T.strength[row, 1] * mask, T.strength[row, 2] * mask,
-            pdf * T.select_prob[row])
+    return t, T.strength[row, 0] * mask, T.strength[row, 1] * mask, T.strength[row, 2] * mask, pdf
 
 
 # ---------------------------------------------------------------------------------------------

@@ -29,14 +29,16 @@ from collections import namedtuple
 import numpy as np
 
 from .bsdfs.closures import (LABEL_DIFFUSE, LABEL_TRANSMIT, LABEL_TRANSPARENT, setup_surface_tangent,
-                             surface_eval, surface_sample, surface_transparency)
+                             surface_eval, surface_is_transmissive, surface_sample, surface_transparency)
 from .camera import camera_ray1, ray_time1
 from .film import filter_offset1
 from .grid_kernels import (STREAM_DIMENSIONS, grid_attenuation, grid_free_flight, grid_nee_distance_pdf,
                            grid_nee_distance_sample, grid_scattering, grid_transmittance)
 from .jit import inline_stage_kernel, stage_kernel
-from .light_kernels import (TRIANGLE, escaped_emission_mis, lamp_crossing, light_has_position, light_position,
-                            sample_light, select_light, triangle_emission, triangle_sample_barycentrics)
+from .light_kernels import (TRIANGLE, lamp_crossing_unselected, light_has_position, light_position,
+                            sample_light_selected, triangle_emission_unselected, triangle_sample_barycentrics)
+from .light_tree import (MODE_SURFACE, MODE_SURFACE_TRANSMIT, MODE_VOLUME, escaped_emission_mis_at, tree_pdf,
+                         tree_select)
 from .media import (channel_probabilities1, distance_pdf1, emission_integral1, equiangular_pdf1,
                     equiangular_sample1, equiangular_setup1, sample_distance1, sample_distance_truncated1,
                     transmittance1, transmittance3, truncated_distance_pdf1)
@@ -53,11 +55,15 @@ O, D, BETA, PREV = 0, 3, 6, 9
 TMAX, PREV_PDF, TRAVELLED, LEAD = 12, 13, 14, 15
 SS, ST, EM, G = 16, 19, 22, 25
 TIME = 26  # the path's shutter time in [0, 1]: its camera ray's, inherited by every later ray
-NF = 27
+# Where the last scattering vertex chose its light (light_tree: a surface point and normal, or the
+# volume segment's start, direction and length): lamps, emitters and escaped rays it finds weigh
+# their MIS against the selection probability from there.
+MIS_P, MIS_N, MIS_T = 27, 30, 33
+NF = 34
 # I columns: path id, bounce counters (Cycles' path_state: total, diffuse, volume, glossy,
 # transmission, transparent), null-boundary crossings, "terminate after transparent"
-PID, BOUNCE, DIFFUSE, VOLUME, BOUNDS, TAT, GLOSSY, TRANSMISSION, TRANSPARENT = range(9)
-NI = 9
+PID, BOUNCE, DIFFUSE, VOLUME, BOUNDS, TAT, GLOSSY, TRANSMISSION, TRANSPARENT, MIS_MODE = range(10)
+NI = 10
 # shadow queue SF columns; SI columns: path id, purpose (which NEE queued it); SK: path key
 S_O, S_D, S_REMAINING, S_CONTRIB, S_ST, S_LEAD, S_TIME = 0, 3, 6, 7, 10, 13, 14
 NSF = 15
@@ -501,11 +507,11 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
             for k in range(n_lamps):
                 if I[p, BOUNCE] == 0 and not T.camera_visible[T.hittable_rows[k]]:
                     continue
-                t_l, r0, r1, r2, lpdf = lamp_crossing(T, k, prev[0], prev[1], prev[2], d[0], d[1], d[2],
-                                                      travelled, travelled + reach)
+                t_l, r0, r1, r2, lpdf = lamp_crossing_unselected(T, k, prev[0], prev[1], prev[2], d[0], d[1], d[2],
+                                                                 travelled, travelled + reach)
                 if not np.isfinite(t_l):
                     continue
-                w = mis_weight(F[p, PREV_PDF], lpdf)
+                w = _mis_from_last_vertex(T, F, I, p, T.hittable_rows[k], lpdf)
                 weight = beta_in
                 if in_med:
                     local_t = t_l - travelled
@@ -521,7 +527,9 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
 
         # ---- escaped rays ------------------------------------------------------------------
         if not geo and not scatter:
-            r = escaped_emission_mis(T, d[0], d[1], d[2], F[p, PREV_PDF], I[p, BOUNCE] == 0)
+            r = escaped_emission_mis_at(T, d[0], d[1], d[2], F[p, PREV_PDF], I[p, BOUNCE] == 0, F[p, MIS_P],
+                                        F[p, MIS_P + 1], F[p, MIS_P + 2], F[p, MIS_N], F[p, MIS_N + 1],
+                                        F[p, MIS_N + 2], F[p, MIS_T], I[p, MIS_MODE])
             _add_radiance(L, pid, _mul3(beta, r))
             alive[p] = False
             continue
@@ -547,6 +555,7 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
             if in_grid:  # MIS needs the pdf of the whole phase mixture at x (as grid NEE uses)
                 pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, _dot3(d, wo))[1]
             _scatter_to(S, F, I, p, x, wo, pdf, VOLUME, S.volume_bounces)
+            _set_mis_origin(F, I, p, o, d, t_seg, MODE_VOLUME)  # the segment its NEE chose a light for
             alive[p] = _russian_roulette(S, F, I, K, p, iteration)
         else:
             alive[p], n_shadow = _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, hit_inst[p],
@@ -559,13 +568,41 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
 
 
 @inline_stage_kernel
-def _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t, time):
-    """The next-event vertex x = o + t d of a medium segment and a sample of light `row` from it
-    at the path's shutter time: (x, wi, dist, value, light pdf, cos(d, wi)), shared by
-    homogeneous and grid NEE."""
+def _set_mis_origin(F, I, p, x, n, t, mode):
+    """Record where path p's last scattering vertex selected its light (light_tree)."""
+    _set3(F, p, MIS_P, x)
+    _set3(F, p, MIS_N, n)
+    F[p, MIS_T] = t
+    I[p, MIS_MODE] = mode
+
+
+@inline_stage_kernel
+def _mis_from_last_vertex(T, F, I, p, row, pdf):
+    """MIS weight of light `row` found by BSDF / phase sampling, pdf its solid-angle light-sampling
+    pdf from the last vertex: times the probability that vertex's light selection picks it
+    (light_tree.tree_pdf, Cycles light/tree.h light_tree_pdf)."""
+    prev_pdf = F[p, PREV_PDF]
+    if not prev_pdf > 0.0:
+        return 1.0
+    sel = tree_pdf(T, row, F[p, MIS_P], F[p, MIS_P + 1], F[p, MIS_P + 2], F[p, MIS_N], F[p, MIS_N + 1],
+                   F[p, MIS_N + 2], F[p, MIS_T], I[p, MIS_MODE])
+    return mis_weight(prev_pdf, pdf * sel)
+
+
+@inline_stage_kernel
+def _select_in_segment(T, K, p, iteration, o, d, t):
+    """A light for the next-event vertex of the segment o + s d, s in [0, t]: (row, probability)."""
+    return tree_select(T, _u(K, p, iteration, D_MED_SELECT), o[0], o[1], o[2], d[0], d[1], d[2], t, MODE_VOLUME)
+
+
+@inline_stage_kernel
+def _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, sel, o, d, t, time):
+    """The next-event vertex x = o + t d of a medium segment and a sample of light `row` (chosen
+    with probability sel) from it at the path's shutter time: (x, wi, dist, value, light pdf,
+    cos(d, wi)), shared by homogeneous and grid NEE."""
     x = (o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t)
     u1, u2 = _u(K, p, iteration, D_MED_LU), _u(K, p, iteration, D_MED_LV)
-    wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, x[0], x[1], x[2], u1, u2, time)
+    wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light_selected(T, row, sel, x[0], x[1], x[2], u1, u2, time)
     value = _textured_light_value(S, T, SP, SPS, row, u1, u2, (wx, wy, wz), (v0, v1, v2), time)
     return x, (wx, wy, wz), dist, value, light_pdf, d[0] * wx + d[1] * wy + d[2] * wz
 
@@ -574,7 +611,9 @@ def _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t, time):
 def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q, n_shadow, margin):
     """One next-event vertex on the segment [0, t_end] (see module docstring)."""
     mode = S.volume_sampling
-    row = select_light(T, _u(K, p, iteration, D_MED_SELECT))
+    row, sel = _select_in_segment(T, K, p, iteration, o, d, t_end)
+    if row < 0:
+        return n_shadow
     u_t = _u(K, p, iteration, D_MED_T)
     finite = np.isfinite(t_end)
     pc = channel_probabilities1(beta, ss, st, 1.0 if (st[0] > 0.0 or finite) else 0.0,
@@ -600,8 +639,8 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
         pdf_t += (1.0 - prob_eq) * truncated_distance_pdf1(st, pc, tr, t_end)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
-    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t,
-                                                                    F[p, TIME])
+    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, sel, o, d,
+                                                                    t, F[p, TIME])
     if S.mixed_phase and _phase_is_mixed(S, C, p):
         scattering, phase = _phase_mixture_eval(S, C, p, cos_theta)
     else:
@@ -781,13 +820,13 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
     # emission (two-sided by default), MIS against the light-sampling pdf
     if S.tri_emissive[prim]:
         prev = _get3(F, p, PREV)
-        r0, r1, r2, lpdf = triangle_emission(T, prim, prev[0], prev[1], prev[2], d[0], d[1], d[2],
-                                             F[p, TRAVELLED] + t, front, F[p, TIME])
+        r0, r1, r2, lpdf, light_row = triangle_emission_unselected(T, prim, d[0], d[1], d[2], F[p, TRAVELLED] + t,
+                                                                   front, F[p, TIME])
         if has_program_emission(SP, S.tri_material[prim]):  # textured: unit strength x the program's
             e = program_emission(SP, SPS, S.tri_material[prim], prim, frame, hu, hv, pb[0], pb[1], pb[2], ns,
                                  n_face, wi_view, not front)
             r0, r1, r2 = r0 * e[0], r1 * e[1], r2 * e[2]
-        _add_radiance(L, pid, _scale3(_mul3(beta, (r0, r1, r2)), mis_weight(F[p, PREV_PDF], lpdf)))
+        _add_radiance(L, pid, _scale3(_mul3(beta, (r0, r1, r2)), _mis_from_last_vertex(T, F, I, p, light_row, lpdf)))
     if I[p, TAT] != 0:  # terminate-after-transparent paths end here
         return False, n_shadow
     nodes, row, n_closure, tangent = SN, S.tri_material[prim], ns, (0.0, 0.0, 0.0)
@@ -802,11 +841,14 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
         return False, n_shadow
     above = (pb[0] + n_face[0] * eps, pb[1] + n_face[1] * eps, pb[2] + n_face[2] * eps)
     below = (pb[0] - n_face[0] * eps, pb[1] - n_face[1] * eps, pb[2] - n_face[2] * eps)
-    if T.count > 0:
-        row = select_light(T, _u(K, p, iteration, D_SURF_SELECT))
+    # light selection at (pb, ns): Cycles' sd->P, sd->N, transmitting closures see both sides
+    mis_mode = MODE_SURFACE_TRANSMIT if surface_is_transmissive(CB, count) else MODE_SURFACE
+    row, sel = tree_select(T, _u(K, p, iteration, D_SURF_SELECT), pb[0], pb[1], pb[2], ns[0], ns[1], ns[2], 0.0,
+                           mis_mode)
+    if row >= 0:
         u1, u2 = _u(K, p, iteration, D_SURF_LU), _u(K, p, iteration, D_SURF_LV)
-        wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light(T, row, above[0], above[1], above[2], u1, u2,
-                                                               F[p, TIME])
+        wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light_selected(T, row, sel, above[0], above[1], above[2],
+                                                                        u1, u2, F[p, TIME])
         wi = (wx, wy, wz)
         v0, v1, v2 = _textured_light_value(S, T, SP, SPS, row, u1, u2, wi, (v0, v1, v2), F[p, TIME])
         f, bsdf_pdf = surface_eval(CB, count, BT, wi_view, wi, ns, n_face)
@@ -826,6 +868,8 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
     if label == 0:
         return False, n_shadow
     _set3(F, p, BETA, _mul3(beta, weight))
+    if not label & LABEL_TRANSPARENT:
+        _set_mis_origin(F, I, p, pb, ns, 0.0, mis_mode)
     if label & LABEL_TRANSPARENT:
         # straight on, counting only against the transparent limit (path_state_next)
         _advance_through(S, F, C, p, prim, front, t, d)
@@ -954,7 +998,9 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
     Cycles' distance-sampled direct scatter does), one-sample MIS of the two; sigma_s and
     transmittance come from the grids (residual ratio tracking)."""
     mode = S.volume_sampling
-    row = select_light(T, _u(K, p, iteration, D_MED_SELECT))
+    row, sel = _select_in_segment(T, K, p, iteration, o, d, t_end)
+    if row < 0:
+        return n_shadow
     finite = np.isfinite(t_end) and t_end > 0.0
     can_equi = light_has_position(T, row) and (mode != 1 or not finite)
     if mode == 2:
@@ -980,8 +1026,8 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
         pdf_t += (1.0 - prob_eq) * grid_nee_distance_pdf(G, o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, t)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
-    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, o, d, t,
-                                                                    F[p, TIME])
+    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, sel, o, d,
+                                                                    t, F[p, TIME])
     f, phase_pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, cos_theta)
     w = power_heuristic(light_pdf, phase_pdf) if light_pdf > 0.0 else 1.0
     contrib = _scale3(_mul3(_mul3(_mul3(beta, transmittance3(st, t)), f), value), w / pdf_t)

@@ -768,6 +768,9 @@ class RenderSettings:
     volume_bounces: int = 0
     transparent_bounces: int = 8
     volume_sampling: str = "mis"
+    # per-point light selection (Cycles' light tree, its use_light_tree default); False: lights
+    # chosen by power alone (Cycles' light distribution), the same image with more noise
+    light_tree: bool = True
     russian_roulette_min_bounces: int = 3
     batch_size: int = 1 << 16
     threads: int = 0  # 0: all cores

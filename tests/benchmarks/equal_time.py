@@ -31,6 +31,11 @@ class EqualTimeRow:
         return self.relmse_volpath / self.relmse_cycles
 
     @property
+    def sample_error_ratio(self) -> float:
+        """relMSE x spp, VolPath / Cycles: independent of the machine's load."""
+        return (self.relmse_volpath * self.volpath_spp) / (self.relmse_cycles * self.cycles_spp)
+
+    @property
     def time_ratio(self) -> float:
         """Time VolPath needs for Cycles' error (relMSE x time is constant for unbiased MC)."""
         return (self.relmse_volpath * self.volpath_seconds) / (self.relmse_cycles * self.cycles_seconds)
@@ -43,6 +48,7 @@ class EqualTimeRow:
             f"  relMSE vs a {self.reference_spp}-spp Cycles reference: VolPath {self.relmse_volpath:.4g}, Cycles "
             f"{self.relmse_cycles:.4g}; ratio {self.error_ratio:.3g}; VolPath needs {self.time_ratio:.3g}x Cycles' "
             "time for the same error",
+            f"  error per sample (relMSE x spp) VolPath / Cycles: {self.sample_error_ratio:.3g}",
             "  image mean ratio VolPath/reference R/G/B: " + " ".join(f"{r:.4f}" for r in self.mean_ratio),
         ] + ([] if self.lookups_per_sample is None else [
             "  VolPath heterogeneous-medium lookups per sample: free flight {:.3g}, shadow / next-event "
@@ -52,25 +58,37 @@ class EqualTimeRow:
 def equal_time_row(name: str, scene, native_scene, seconds: float, reference_spp: int, scratch,
                    resolution=None) -> EqualTimeRow:
     """resolution: Cycles' render size override (native_scene must have been exported at it)."""
+    return equal_time_rows(name, scene, {"": native_scene}, seconds, reference_spp, scratch, resolution)[""]
+
+
+def equal_time_rows(name: str, scene, native_scenes: dict, seconds: float, reference_spp: int, scratch,
+                    resolution=None) -> dict:
+    """One row per VolPath variant (label -> native scene, e.g. settings changed), all against
+    the same reference and the same Cycles run."""
     from addon.compare import cycles_engine, metrics, volpath_engine
 
-    bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
+    first = next(iter(native_scenes.values()))
+    bounces = cycles_engine.BounceLimits.from_settings(first.settings)
     with cycles_engine.matched_settings(scene, bounces, resolution):
         reference = cycles_engine.render_once(scene, samples=reference_spp, seed=1000, scratch=scratch)
         cycles_per_sample = reference.render_seconds / reference_spp
         cycles_run = cycles_engine.render_once(scene, samples=max(1, int(seconds / cycles_per_sample)), seed=1,
                                                scratch=scratch)
-    grids = [m for m in native_scene.media if hasattr(m, "lookups")]
-    for medium in grids:
-        medium.lookups[:] = 0
-    volpath_run = volpath_engine.render_runs(native_scene, runs=1, samples=1, base_seed=1, time_limit=seconds)[0]
-    samples = volpath_run.samples * volpath_run.image.shape[0] * volpath_run.image.shape[1]
-    lookups = sum(m.lookups for m in grids) / samples if grids else None
-    raw_v = metrics.relmse(volpath_run.image, reference.image)
     raw_c = metrics.relmse(cycles_run.image, reference.image)
     reference_share = raw_c * cycles_run.samples / (cycles_run.samples + reference_spp)
-    means_v = metrics.rgb(volpath_run.image).mean(axis=(0, 1))
     means_r = metrics.rgb(reference.image).mean(axis=(0, 1))
-    return EqualTimeRow(name, volpath_run.samples, volpath_run.render_seconds, cycles_run.samples,
-                        max(cycles_run.render_seconds, 1e-9), raw_v - reference_share, raw_c - reference_share,
-                        reference_spp, means_v / np.maximum(means_r, 1e-30), lookups, means_r)
+    rows = {}
+    for label, native_scene in native_scenes.items():
+        grids = [m for m in native_scene.media if hasattr(m, "lookups")]
+        for medium in grids:
+            medium.lookups[:] = 0
+        volpath_run = volpath_engine.render_runs(native_scene, runs=1, samples=1, base_seed=1, time_limit=seconds)[0]
+        samples = volpath_run.samples * volpath_run.image.shape[0] * volpath_run.image.shape[1]
+        lookups = sum(m.lookups for m in grids) / samples if grids else None
+        raw_v = metrics.relmse(volpath_run.image, reference.image)
+        means_v = metrics.rgb(volpath_run.image).mean(axis=(0, 1))
+        rows[label] = EqualTimeRow(f"{name} {label}".strip(), volpath_run.samples, volpath_run.render_seconds,
+                                   cycles_run.samples, max(cycles_run.render_seconds, 1e-9), raw_v - reference_share,
+                                   raw_c - reference_share, reference_spp, means_v / np.maximum(means_r, 1e-30),
+                                   lookups, means_r)
+    return rows

@@ -55,7 +55,10 @@ def test_cycles_gets_volpath_bounce_limits(fog_scene):
         assert c.device == "CPU" and not c.use_denoising and not c.use_adaptive_sampling
         assert c.sample_clamp_direct == 0 and c.sample_clamp_indirect == 0 and not c.volume_biased
         assert fog_scene.render.resolution_x == 8
+        assert c.use_light_tree  # VolPath's default selection, Cycles' too
     assert fog_scene.render.resolution_x == TINY[0]
+    with cycles_engine.matched_settings(fog_scene, cycles_engine.BounceLimits(light_tree=False)):
+        assert not fog_scene.cycles.use_light_tree
 
 
 def test_equal_time_and_reference(fog_scene, tmp_path):
