@@ -61,6 +61,29 @@ def test_bump_on_a_plane():
     assert _bump(n, ey, ex, 0.0, 0.0, g * d, distance=0.3) == pytest.approx(expected, abs=1e-12)
 
 
+# A tilted triangle shaded at one point with a shading normal different from its geometric one
+TILTED_TRIANGLE = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.5], [0.0, 1.5, 0.3]])
+
+
+def _shade_tilted_triangle(mesh, name, program):
+    """shade_surface_program at barycentrics (0.3, 0.25) of `mesh` (TILTED_TRIANGLE) with a
+    diffuse material driven by `program`: (normal, tangent, Ng, Ns, tables, scratch)."""
+    from volpath_native.bsdfs.nodes import surface_node_table
+
+    material = Material(name, surface_nodes=[SurfaceNode.for_kind("diffuse")], surface_program=program)
+    tables = surface_program_tables([material], Accelerator([mesh]))
+    scratch = new_surface_scratch([material], tables)
+    nodes = surface_node_table([material.surface_nodes])
+    corners = TILTED_TRIANGLE
+    ng = _unit(np.cross(corners[1] - corners[0], corners[2] - corners[0]))
+    ns = _unit(ng + np.array([0.2, 0.1, -0.05]))
+    hu, hv = 0.3, 0.25
+    p = corners[0] * (1 - hu - hv) + corners[1] * hu + corners[2] * hv
+    normal, tangent = shade_surface_program(tables, scratch, nodes, 0, 0, 0, hu, hv, p[0], p[1], p[2], tuple(ns),
+                                            tuple(ng), tuple(ng), False)
+    return normal, tangent, ng, ns, tables, scratch
+
+
 def _bump_plane_program(kind):
     """Height = a . P (kind 'position') or 0.8 u of the active UV map (kind 'uv'), through the
     copies the exporter makes (SWAP the moved inputs in, the same nodes, SWAP back)."""
@@ -95,23 +118,10 @@ def test_bump_at_a_hit_is_the_small_footprint_limit(kind):
     """A tilted triangle with a shading normal different from its geometric one: the program's
     normal is normalize(N - Distance (g - (g.N)/(Ng.N) Ng)), g the height's gradient in the
     triangle's plane -- the limit of Cycles' svm_node_set_bump as its footprint shrinks."""
-    corners = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.5], [0.0, 1.5, 0.3]])
+    corners = TILTED_TRIANGLE
     uvs = np.array([[0.1, 0.2], [0.9, 0.3], [0.2, 0.8]])
     mesh = Mesh("tri", corners, np.array([[0, 1, 2]]), np.zeros(1, int), corner_attributes={"uv:": uvs[None]})
-    material = Material("bumped", surface_nodes=[SurfaceNode.for_kind("diffuse")],
-                        surface_program=_bump_plane_program(kind))
-    accel = Accelerator([mesh])
-    tables = surface_program_tables([material], accel)
-    scratch = new_surface_scratch([material], tables)
-    from volpath_native.bsdfs.nodes import surface_node_table
-
-    nodes = surface_node_table([material.surface_nodes])
-    ng = _unit(np.cross(corners[1] - corners[0], corners[2] - corners[0]))
-    ns = _unit(ng + np.array([0.2, 0.1, -0.05]))
-    hu, hv = 0.3, 0.25
-    p = corners[0] * (1 - hu - hv) + corners[1] * hu + corners[2] * hv
-    normal, tangent = shade_surface_program(tables, scratch, nodes, 0, 0, 0, hu, hv, p[0], p[1], p[2], tuple(ns),
-                                            tuple(ng), tuple(ng), False)
+    normal, tangent, ng, ns, _, _ = _shade_tilted_triangle(mesh, "bumped", _bump_plane_program(kind))
     if kind == "position":
         gradient = np.array([0.3, -0.5, 0.2])
     else:  # u as a function on the plane: solve dP = e1 du + e2 dv
@@ -265,27 +275,14 @@ def test_displacement_as_bump_on_a_tilted_plane(space, object_scale):
     object_dir_transform), so the height's world gradient is s x 0.5 a (World: 0.5 a), and the
     normal is the Bump node's small-footprint limit with Distance 1 -- normalize(N - (g - (g.N) /
     (Ng.N) Ng)), g that gradient in the plane of the tilted triangle."""
-    corners = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.5], [0.0, 1.5, 0.3]])
+    corners = TILTED_TRIANGLE
     rotation, translation = _rotation_z(0.6), np.array([0.4, -0.2, 0.1])
     object_to_world = np.hstack([object_scale * rotation, translation[:, None]])
     world_to_object = np.hstack([rotation.T / object_scale, (-rotation.T @ translation / object_scale)[:, None]])
     assert world_to_object[:, :3] @ object_to_world[:, :3] == pytest.approx(np.eye(3))
     mesh = Mesh("tri", corners, np.array([[0, 1, 2]]), np.zeros(1, int),
                 object_frame=np.stack([world_to_object, np.eye(4)[:3]]))
-    material = Material("displaced", surface_nodes=[SurfaceNode.for_kind("diffuse")],
-                        surface_program=_displaced_plane_program(space))
-    accel = Accelerator([mesh])
-    tables = surface_program_tables([material], accel)
-    scratch = new_surface_scratch([material], tables)
-    from volpath_native.bsdfs.nodes import surface_node_table
-
-    nodes = surface_node_table([material.surface_nodes])
-    ng = _unit(np.cross(corners[1] - corners[0], corners[2] - corners[0]))
-    ns = _unit(ng + np.array([0.2, 0.1, -0.05]))
-    hu, hv = 0.3, 0.25
-    p = corners[0] * (1 - hu - hv) + corners[1] * hu + corners[2] * hv
-    normal, _ = shade_surface_program(tables, scratch, nodes, 0, 0, 0, hu, hv, p[0], p[1], p[2], tuple(ns),
-                                      tuple(ng), tuple(ng), False)
+    normal, _, ng, ns, tables, scratch = _shade_tilted_triangle(mesh, "displaced", _displaced_plane_program(space))
 
     def expected(factor):
         gradient = factor * 0.5 * np.array([0.3, -0.5, 0.2])
