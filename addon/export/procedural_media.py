@@ -68,8 +68,9 @@ class ProceduralMedia:
         self.world_program = None  # a world volume that varies over space (world_medium_box)
 
     def bind(self, slot_materials: np.ndarray, obj, instance_name: str, matrix: np.ndarray,
-             vertices: np.ndarray) -> np.ndarray:
-        """slot_materials with each varying-volume material replaced by its copy for this object."""
+             vertices: np.ndarray, motion=None) -> np.ndarray:
+        """slot_materials with each varying-volume material replaced by its copy for this object;
+        motion: the object's matrix_world at its motion steps (its medium moves with it), or None."""
         if not self.programs or not any(int(i) in self.programs for i in slot_materials):
             return slot_materials
         out = slot_materials.copy()
@@ -79,11 +80,11 @@ class ProceduralMedia:
                 continue
             key = (int(index), instance_name, matrix.tobytes())
             if key not in self._bound:
-                self._bound[key] = self._new_medium(int(index), program, obj, instance_name, matrix, vertices)
+                self._bound[key] = self._new_medium(int(index), program, obj, instance_name, matrix, vertices, motion)
             out[k] = self._bound[key]
         return out
 
-    def _new_medium(self, index, program, obj, instance_name, matrix, vertices) -> int:
+    def _new_medium(self, index, program, obj, instance_name, matrix, vertices, motion=None) -> int:
         table = self.table
         material = table.materials[index]
         label = f"{material.name} on '{instance_name}'"
@@ -98,6 +99,11 @@ class ProceduralMedia:
         except vp.SceneError as error:
             table.reporter.warn(f"material '{material.name}' on '{instance_name}': {error}; no medium")
             return index
+        if motion is not None:
+            try:
+                medium.set_motion(motion)
+            except vp.SceneError as error:  # e.g. scaled to nothing at a step
+                table.reporter.warn(f"{error}; its shader is evaluated where the object is at the shutter centre")
         for message in medium.warnings():
             table.reporter.warn(message)
         table.media.append(medium)
