@@ -196,11 +196,11 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=
         else:
             name = obj.name
         path = object_motion.get(motion.instance_key(instance))
-        # a varying volume moves with its object (its medium placed at each path's time)
-        bound = table.procedural.bind(slot_materials, obj, name, matrix, local.vertices, path)
         deformation = object_deformation.get(obj.name) if not instance.is_instance else None
         if deformation is not None and deformation.shape[1] != len(local.vertices):
             deformation = None  # read from another evaluation (e.g. a different modifier stack): not blurred
+        # a varying volume moves with its object (its medium placed at each path's time)
+        bound = table.procedural.bind(slot_materials, obj, name, matrix, local.vertices, path, deformation)
         groups.add(None if key is None else (key, requests), name, obj.name, local, bound, matrix, path,
                    deformation)
     return groups.meshes(reporter), scene_lights, grid_sources

@@ -256,6 +256,28 @@ def test_deforming_mesh_gets_its_vertex_positions_over_the_shutter(scene):
     np.testing.assert_allclose(shift, [[-0.125] * 8, [0.0] * 8, [0.125] * 8], atol=1e-5)
 
 
+def test_deforming_varying_volume_keeps_its_deformation_inside_its_medium_box(scene):
+    """A mesh with a varying volume deformed during the shutter: its boundary deforms (vertex
+    steps) and its medium's box holds every step's vertices (Cycles evaluates the shader wherever
+    the deformed boundary goes; its density follows the object's transform only)."""
+    from addon_scenes import node_material
+    from test_export_procedural_volumes import height_fog
+
+    scene.render.use_motion_blur = True
+    obj = add_mesh(scene, "Wobble", material=node_material("Fog", volume=height_fog))
+    warp = obj.modifiers.new("Scale", "DISPLACE")
+    warp.direction = "Z"
+    _animate(warp, "strength", 0.0, 2.0)  # +-0.125 along z over the shutter (see above)
+    exported, warnings = export(scene)
+    (mesh,) = exported.meshes
+    assert mesh.vertex_motion_steps == 3
+    medium = exported.media[exported.materials[mesh.material_ids[0]].medium]
+    lo, hi = medium.object_bounds
+    assert lo[2] <= mesh.vertex_motion[..., 2].min() + 1e-6 and hi[2] >= mesh.vertex_motion[..., 2].max() - 1e-6
+    assert hi[2] - lo[2] > np.ptp(mesh.vertices[:, 2]) + 0.2  # planted: the frame's box alone is too small
+    assert not any("shutter centre" in w for w in warnings), warnings
+
+
 def test_moving_light_stays_at_the_shutter_centre_as_in_cycles(scene):
     from addon_scenes import add_light
 
