@@ -348,15 +348,17 @@ class GridMedium:
         medium is this grid: the volume-stack boundary, as Cycles' volume bounds mesh. A moving
         medium's box is an object-space mesh placed by its motion steps (as a moving fog box)."""
         triangles = self._BOX_TRIANGLES
-        if np.linalg.det(self.index_to_world[:3, :3]) < 0:  # a mirroring transform flips winding
-            triangles = triangles[:, ::-1]
         materials = np.full(len(triangles), int(material_id), dtype=np.int32)
         if self.motion is None:
+            if np.linalg.det(self.index_to_world[:3, :3]) < 0:  # a mirroring transform flips winding
+                triangles = triangles[:, ::-1]
             return Mesh(f"{self.name} bounds", self.box_corners_world(), triangles, materials)
-        reference = self.motion_object_to_world
-        corners = self.box_corners_world() @ np.linalg.inv(reference)[:3, :3].T + np.linalg.inv(reference)[:3, 3]
-        return Mesh(f"{self.name} bounds", corners, triangles, materials, instances=reference[None, :3],
-                    motion=self.motion[None])
+        to_object = np.linalg.inv(self.motion_object_to_world)
+        if np.linalg.det((to_object @ self.index_to_world)[:3, :3]) < 0:  # instances flip their own mirroring
+            triangles = triangles[:, ::-1]
+        corners = self.box_corners_world() @ to_object[:3, :3].T + to_object[:3, 3]
+        return Mesh(f"{self.name} bounds", corners, triangles, materials,
+                    instances=self.motion_object_to_world[None, :3], motion=self.motion[None])
 
     # ------------------------------------------------------------------------------------------
     # Serialisation (for the .vpscene format: a JSON header plus named arrays)

@@ -162,3 +162,20 @@ def test_bad_motion_is_refused():
     singular[2, :3, :3] = 0.0
     with pytest.raises(Exception, match="singular"):
         medium.set_motion(singular, CENTRE)
+
+
+@pytest.mark.parametrize("mirror", [1.0, -1.0])
+def test_moving_bounds_face_outwards(mirror):
+    """The moving box of a grid medium, placed at the frame, has outward faces also when its
+    object is mirrored (instances flip a mirroring transform's winding themselves). Planted: the
+    static box's winding rule (by the index -> world determinant) flips a mirrored moving box."""
+    flip = np.diag([mirror, 1.0, 1.0, 1.0])
+    medium = _gradient_grid()
+    medium = GridMedium("cloud", medium.density[1:-2, 1:-2, 1:-2], CENTRE @ flip @ np.linalg.inv(CENTRE)
+                        @ medium.source_index_to_world, [0, 0, 0], [SIGMA] * 3)
+    medium.set_motion(np.stack([_four(m) @ flip for m in STEPS]), CENTRE @ flip)
+    (placed,) = medium.boundary_mesh(0).world_copies()
+    corners = placed.vertices[placed.triangles].astype(np.float64)
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    outwards = np.einsum("ij,ij->i", normals, corners.mean(axis=1) - placed.vertices.mean(axis=0))
+    assert np.all(outwards > 0)
