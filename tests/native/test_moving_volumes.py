@@ -51,8 +51,9 @@ def _pixels():
 
 
 def _expected(sigma_at_object_points, placement, times=TIMES, n_z=600, z_range=1.0):
-    """Shutter average of exp(-integral of sigma) along the pixels' vertical rays; sigma_at_object
-    _points((N, 3) object-space points) -> (N,); placement(time) -> 3x4 object -> world."""
+    """Shutter average of exp(-integral of sigma) along the pixels' vertical rays;
+    sigma_at_object_points((N, 3) object-space points, (N, 3) world points) -> (N,);
+    placement(time) -> 3x4 object -> world."""
     pixels = _pixels()
     z = (np.arange(n_z) + 0.5) / n_z * 2 * z_range - z_range
     points = np.concatenate([np.repeat(pixels, n_z, axis=0), np.tile(z, len(pixels))[:, None]], axis=1)
@@ -60,7 +61,7 @@ def _expected(sigma_at_object_points, placement, times=TIMES, n_z=600, z_range=1
     for time in times:
         to_object = np.linalg.inv(_four(placement(time)))
         local = points @ to_object[:3, :3].T + to_object[:3, 3]
-        depth = sigma_at_object_points(local).reshape(len(pixels), n_z).sum(axis=1) * (2 * z_range / n_z)
+        depth = sigma_at_object_points(local, points).reshape(len(pixels), n_z).sum(axis=1) * (2 * z_range / n_z)
         total += np.exp(-depth)
     return (total / len(times)).reshape(SIZE, SIZE)
 
@@ -105,7 +106,7 @@ def test_moving_grid_medium_is_the_shutter_average_of_static_ones(tmp_path):
     medium.set_motion(STEPS, CENTRE)
     assert medium.tables.motion_steps == 3 and static.tables.motion_steps == 1  # static: the fast path
 
-    def sigma(local):
+    def sigma(local, world):
         world_at_centre = local @ CENTRE[:3, :3].T + CENTRE[:3, 3]
         return SIGMA * static.density_at(world_at_centre)
 
@@ -123,12 +124,12 @@ def test_moving_grid_medium_is_the_shutter_average_of_static_ones(tmp_path):
     np.testing.assert_allclose(loaded.motion_object_to_world, CENTRE)
 
 
-def _ramp_program():
-    """sigma_a = 0.3 + 1.5 (x + 0.5) + 0.5 y^2 at object coordinates (Texture Coordinate Object),
-    no scattering (a black Principled Volume)."""
+def _ramp_program(coordinates=P.TEXCO_OBJECT):
+    """sigma_a = 0.3 + 1.5 (x + 0.5) + 0.5 y^2 at object coordinates (Texture Coordinate Object;
+    or another texture coordinate), no scattering (a black Principled Volume)."""
     b = ProgramBuilder("ramp")
     pos = b.alloc(3)
-    b.emit("TEXCO", P.TEXCO_OBJECT, pos)
+    b.emit("TEXCO", coordinates, pos)
     x, y, z = b.alloc(), b.alloc(), b.alloc()
     b.emit("SEPARATE3", 0, pos, x, y, z)
     lin, yy, dens = b.alloc(), b.alloc(), b.alloc()
@@ -146,7 +147,7 @@ def test_moving_program_medium_is_the_shutter_average_of_static_ones():
     boundary = box_mesh("ramp box", [-0.5, -0.5, -0.5], [0.5, 0.5, 0.5], material=0)
     boundary.instances, boundary.motion = STEPS[1][None], STEPS[None]
 
-    def sigma(local):
+    def sigma(local, world):
         inside = np.all(np.abs(local) <= 0.5, axis=1)
         return np.where(inside, 0.3 + 1.5 * (local[:, 0] + 0.5) + 0.5 * local[:, 1] ** 2, 0.0)
 
@@ -179,3 +180,24 @@ def test_moving_bounds_face_outwards(mirror):
     normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     outwards = np.einsum("ij,ij->i", normals, corners.mean(axis=1) - placed.vertices.mean(axis=0))
     assert np.all(outwards > 0)
+
+
+def test_a_world_position_shader_stays_in_the_world_inside_a_moving_box():
+    """Texture Coordinate Position is the world point (Cycles' sd->P), not the moving object's: the
+    density field stands still while the box that holds it moves. Planted: a field that moves with
+    the box (the object-coordinate expectation) fails."""
+    medium = ProgramMedium("ramp", _ramp_program(P.TEXCO_POSITION), CENTRE, ([-0.5, -0.5, -0.5], [0.5, 0.5, 0.5]))
+    medium.set_motion(STEPS)
+    boundary = box_mesh("ramp box", [-0.5, -0.5, -0.5], [0.5, 0.5, 0.5], material=0)
+    boundary.instances, boundary.motion = STEPS[1][None], STEPS[None]
+
+    def field(p):
+        return np.maximum(0.3 + 1.5 * (p[:, 0] + 0.5) + 0.5 * p[:, 1] ** 2, 0.0)
+
+    inside = lambda local: np.all(np.abs(local) <= 0.5, axis=1)
+    image, spread = _render(medium, boundary)
+    moving = lambda t: decomposed_at(STEPS, t)
+    expected = _expected(lambda local, world: np.where(inside(local), field(world), 0.0), moving)
+    assert np.abs((image - expected) / spread).max() < Z_LIMIT
+    carried = _expected(lambda local, world: np.where(inside(local), field(local), 0.0), moving)
+    assert np.abs((image - carried) / spread).max() > 2 * Z_LIMIT
