@@ -30,6 +30,7 @@ import numpy as np
 
 from volpath_native.grid_medium import volume_object_density_factor
 
+from .export.motion import instance_key
 # The shared grid -> medium converter; re-exported for callers of this module.
 from .export.grid_media import (DenseGrid, ExportedVolume, grid_medium_from_volume,  # noqa: F401
                                 material_grid_names, principled_volume_inputs)
@@ -220,6 +221,7 @@ def export_volume_objects(depsgraph, warnings: list, temp_dir: Optional[str] = N
         if key not in read:
             names = set(STANDARD_GRIDS) | material_grid_names(obj.active_material)
             read[key] = export_volume_object(obj, warnings, temp_dir, grid_names=tuple(sorted(names)))
+            _warn_velocity_blur(obj, depsgraph.scene, warnings)  # its grids are loaded now
         source = read[key]
         if source is None:
             continue
@@ -229,8 +231,17 @@ def export_volume_objects(depsgraph, warnings: list, temp_dir: Optional[str] = N
         exported.append(ExportedVolume(
             obj.name, object_to_world, grids,
             volume_object_density_factor(object_to_world, object_space=obj.data.render.space == "OBJECT"),
-            obj.active_material))
+            obj.active_material, instance_key=instance_key(instance)))
     return exported
+
+
+def _warn_velocity_blur(obj, scene, warnings: list):
+    """Cycles also blurs a Volume by its velocity grid (blender/volume.cpp, ATTR_STD_VOLUME_VELOCITY);
+    VolPath blurs only the object's motion."""
+    name = getattr(obj.data, "velocity_grid", "")
+    if scene.render.use_motion_blur and name and name in {g.name for g in obj.data.grids}:
+        warnings.append(f"volume '{obj.name}': velocity motion blur (grid '{name}') is not supported; only the "
+                        "object's motion is blurred")
 
 
 def _shift(origin) -> np.ndarray:

@@ -81,7 +81,7 @@ def _export(depsgraph, camera_object, reporter, cancel, frame_set):
     meshes, scene_lights, grid_sources = _export_instances(depsgraph, table, reporter, cancel, shutter.object_motion,
                                                            shutter.vertex_motion)
     if grid_sources:
-        meshes += _export_grid_media(depsgraph, grid_sources, table, reporter)
+        meshes += _export_grid_media(depsgraph, grid_sources, table, reporter, shutter.object_motion)
     validate.close_volume_boundaries(meshes, table.materials, reporter)
     world_datablock = compat.render_world(depsgraph.view_layer, scene)
     world = validate.world_background(shading.export_world(world_datablock, table), world_datablock, reporter)
@@ -143,7 +143,6 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=
     grid_sources = set()  # "volume" / "fluid": grid media exported by _export_grid_media
     material_override = depsgraph.view_layer.material_override
     groups = instancing.InstanceGroups(validate.MemoryBudget())
-    static_program_media = set()  # objects whose volume program is not blurred (warned once)
     for instance in depsgraph.object_instances:
         if cancel is not None and cancel():
             raise ExportCancelled()
@@ -196,20 +195,14 @@ def _export_instances(depsgraph, table: shading.MaterialTable, reporter, cancel=
             name = f"{parent}/{obj.name}#{groups.instance_count}"
         else:
             name = obj.name
-        bound = table.procedural.bind(slot_materials, obj, name, matrix, local.vertices)
         path = object_motion.get(motion.instance_key(instance))
-        if path is not None and bound is not slot_materials:
-            static_program_media.add(obj.name)  # its medium is placed by the centre transform
-            path = None
         deformation = object_deformation.get(obj.name) if not instance.is_instance else None
         if deformation is not None and deformation.shape[1] != len(local.vertices):
             deformation = None  # read from another evaluation (e.g. a different modifier stack): not blurred
+        # a varying volume moves with its object (its medium placed at each path's time)
+        bound = table.procedural.bind(slot_materials, obj, name, matrix, local.vertices, path, deformation)
         groups.add(None if key is None else (key, requests), name, obj.name, local, bound, matrix, path,
                    deformation)
-    if static_program_media:
-        reporter.warn(f"motion blur: {', '.join(repr(n) for n in sorted(static_program_media))} move during the "
-                      "shutter but their volume shader varies in space; VolPath renders them at the shutter centre "
-                      "(Cycles blurs them)")
     return groups.meshes(reporter), scene_lights, grid_sources
     return meshes, scene_lights, grid_sources
 
@@ -232,10 +225,12 @@ def _warn_unsupported_visibility(obj, reporter):
             reporter.warn(f"object '{obj.name}': {label} is not supported; rendered as a normal object")
 
 
-def _export_grid_media(depsgraph, sources: set, table: shading.MaterialTable, reporter) -> list:
+def _export_grid_media(depsgraph, sources: set, table: shading.MaterialTable, reporter, object_motion=None) -> list:
     """Volume objects (OpenVDB grids, addon/export_volume_grids.py) and fluid gas domains
     (addon/export/fluid.py) -> grid media through one converter (grid_media.py), each inside its
-    padded bounding box, an invisible boundary mesh (as Cycles' volume bounds mesh)."""
+    padded bounding box, an invisible boundary mesh (as Cycles' volume bounds mesh). Those that
+    move over the shutter (object_motion, by instance key) move with their box."""
+    object_motion = object_motion or {}
     messages: list[str] = []
     meshes = []
     exported = []
@@ -264,6 +259,12 @@ def _export_grid_media(depsgraph, sources: set, table: shading.MaterialTable, re
             continue
         if medium is None:
             continue
+        path = object_motion.get(volume.instance_key)
+        if path is not None:
+            try:
+                medium.set_motion(path, volume.object_to_world)
+            except vp.SceneError as error:  # e.g. scaled to nothing at a step
+                messages.append(f"{error}; rendered where it is at the shutter centre")
         table.media.append(medium)
         table.materials.append(vp.Material(name=f"{volume.object_name} (volume bounds)", surface="null",
                                            base_color=np.zeros(3), medium=len(table.media) - 1))

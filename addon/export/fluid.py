@@ -47,6 +47,7 @@ import bpy
 import numpy as np
 
 from .grid_media import DenseGrid, ExportedVolume, material_grid_names
+from .motion import instance_key
 
 #: Where grids are read from, in order; tests pin one source.
 FLUID_SOURCES = ("cache", "runtime")
@@ -99,6 +100,7 @@ def export_fluid_domains(depsgraph, warnings: list, log: Callable[[str], None] =
         _warn_unsupported(obj, scene, warnings)
         volume = export_domain(obj, np.array(instance.matrix_world, dtype=np.float64), frame, warnings, log)
         if volume is not None:
+            volume.instance_key = instance_key(instance)
             exported.append(volume)
     return exported
 

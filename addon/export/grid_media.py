@@ -47,6 +47,7 @@ class ExportedVolume:
     density_factor: float = 1.0
     material: Optional[object] = None  # bpy.types.Material or None
     label: str = ""
+    instance_key: tuple = ()  # export.motion.instance_key of its depsgraph instance (its motion blur)
 
     def __post_init__(self):
         self.label = self.label or f"volume '{self.object_name}'"

@@ -3,9 +3,10 @@ BlenderSync::sync_motion, blender/camera.cpp sync_camera / sync_camera_motion, b
 sync_object in motion passes, blender/util.h object_motion_steps): the camera's and the objects'
 transforms at their motion steps over the shutter, the shutter curve and the rolling shutter.
 
-Lights stay at the shutter centre as in Cycles; volume objects (and meshes whose volume is a
-shader program) that move are rendered at the shutter centre with a warning (Cycles blurs them);
-velocity-based fluid motion blur likewise stays out.
+Lights stay at the shutter centre as in Cycles. Moving volume objects (and meshes whose volume
+is a shader program) are blurred by their object transform, as Cycles shades a moving volume at
+the ray's time (volpath_native/medium_motion.py); velocity-based motion blur (fluid domains, a
+Volume's velocity grid) stays out with a warning.
 """
 from __future__ import annotations
 
@@ -101,7 +102,8 @@ def camera_motion(scene, camera_object_at, frame_set, objects_at, reporter, defo
     times, each object keeping the steps of its own count):
     - the camera's transforms at its motion steps;
     - `object_motion`: {instance key: [4x4 matrix_world at each of its steps]} for geometry instances
-      whose transform changes during the shutter (Cycles' Object::motion, cleared when all equal).
+      and volume objects (kind "medium") whose transform changes during the shutter (Cycles'
+      Object::motion, cleared when all equal).
     - `vertex_motion`: {object name: (S, V, 3) vertex positions} of deforming meshes (Cycles'
       blender/mesh.cpp sync_mesh_motion: only objects with deforming modifiers are read, and a mesh
       whose vertex count changes during the shutter is not blurred -- warned here).
@@ -147,13 +149,13 @@ def camera_motion(scene, camera_object_at, frame_set, objects_at, reporter, defo
         if len(set(lenses)) > 1:
             reporter.warn(f"camera '{name}': its focal length or scale changes during the shutter; VolPath blurs "
                           "only its motion (Cycles also its zoom)")
-    moved_lights, moved_media = set(), set()
+    moved_lights = set()
     for key, (matrix, steps, kind) in at_centre.items():
         own_times = relative_times(steps) if steps else times
         path = [samples[t].get(key) for t in own_times]
         if any(m is None for m in path) or all(np.allclose(m, path[0], rtol=0, atol=1e-9) for m in path):
             continue  # appears or vanishes during the shutter, or does not move
-        if kind == "geometry" and steps:
+        if kind in ("geometry", "medium") and steps:
             if not all(np.all(np.isfinite(m)) for m in path):
                 reporter.warn(f"object '{key[0]}': its transform during the shutter is not finite; rendered without "
                               "motion blur")
@@ -161,8 +163,6 @@ def camera_motion(scene, camera_object_at, frame_set, objects_at, reporter, defo
             settings.object_motion[key] = path
         elif kind == "light":
             moved_lights.add(key[0])
-        elif kind == "medium":
-            moved_media.add(key[0])
     changed_topology = set()
     for object_name, (steps, positions) in shapes.get(0.0, {}).items():
         path = [shapes[t].get(object_name, (0, None))[1] for t in relative_times(steps)]
@@ -181,9 +181,6 @@ def camera_motion(scene, camera_object_at, frame_set, objects_at, reporter, defo
     if moved_lights:
         reporter.warn(f"motion blur: lights {_names(moved_lights)} move during the shutter; they are rendered where "
                       "they are at the shutter centre, as Cycles does (it does not blur lights)")
-    if moved_media:
-        reporter.warn(f"motion blur: volume objects {_names(moved_media)} move during the shutter; VolPath renders "
-                      "them where they are at the shutter centre (Cycles blurs them)")
     return settings
 
 

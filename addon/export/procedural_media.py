@@ -68,8 +68,11 @@ class ProceduralMedia:
         self.world_program = None  # a world volume that varies over space (world_medium_box)
 
     def bind(self, slot_materials: np.ndarray, obj, instance_name: str, matrix: np.ndarray,
-             vertices: np.ndarray) -> np.ndarray:
-        """slot_materials with each varying-volume material replaced by its copy for this object."""
+             vertices: np.ndarray, motion=None, vertex_motion=None) -> np.ndarray:
+        """slot_materials with each varying-volume material replaced by its copy for this object;
+        motion: the object's matrix_world at its motion steps (its medium moves with it), or None;
+        vertex_motion: (S, V, 3) object-space positions of a deforming mesh (the medium's box holds
+        them all: Cycles evaluates the shader wherever the deformed boundary goes)."""
         if not self.programs or not any(int(i) in self.programs for i in slot_materials):
             return slot_materials
         out = slot_materials.copy()
@@ -79,16 +82,18 @@ class ProceduralMedia:
                 continue
             key = (int(index), instance_name, matrix.tobytes())
             if key not in self._bound:
-                self._bound[key] = self._new_medium(int(index), program, obj, instance_name, matrix, vertices)
+                self._bound[key] = self._new_medium(int(index), program, obj, instance_name, matrix, vertices, motion,
+                                                    vertex_motion)
             out[k] = self._bound[key]
         return out
 
-    def _new_medium(self, index, program, obj, instance_name, matrix, vertices) -> int:
+    def _new_medium(self, index, program, obj, instance_name, matrix, vertices, motion=None, vertex_motion=None) -> int:
         table = self.table
         material = table.materials[index]
         label = f"{material.name} on '{instance_name}'"
         generated = generated_transform(obj, vertices)
-        lo, hi = vertices.min(axis=0).astype(np.float64), vertices.max(axis=0).astype(np.float64)
+        extent = vertices if vertex_motion is None else np.concatenate([vertices, vertex_motion.reshape(-1, 3)])
+        lo, hi = extent.min(axis=0).astype(np.float64), extent.max(axis=0).astype(np.float64)
         world_to_object = np.linalg.inv(matrix)[:3]
         local = lo + (hi - lo) * np.random.default_rng(0).random((64, 3))
         g = phase_of(program, np.stack([world_to_object, generated]), local @ matrix[:3, :3].T + matrix[:3, 3],
@@ -98,6 +103,11 @@ class ProceduralMedia:
         except vp.SceneError as error:
             table.reporter.warn(f"material '{material.name}' on '{instance_name}': {error}; no medium")
             return index
+        if motion is not None:
+            try:
+                medium.set_motion(motion)
+            except vp.SceneError as error:  # e.g. scaled to nothing at a step
+                table.reporter.warn(f"{error}; its shader is evaluated where the object is at the shutter centre")
         for message in medium.warnings():
             table.reporter.warn(message)
         table.media.append(medium)

@@ -49,7 +49,7 @@ GridTables = namedtuple("GridTables", [
     "has_color",          # bool
     "has_emission_grid",  # bool
     "has_emission",       # bool: constant emission is non-zero
-    "world_to_index",     # (3,4) float64 affine world -> padded index space
+    "world_to_index",     # (3,4) float64 affine world -> padded index space (at the path's time if moving)
     "shape",              # (3,) int64 padded grid shape
     "sigma_s",            # (3,) float64 per unit density, 1/m
     "sigma_a",            # (3,) float64
@@ -73,6 +73,10 @@ GridTables = namedtuple("GridTables", [
     "frame",              # (2,3,4) float64 world -> object, object -> generated texture space
     "attributes",         # (nx,ny,nz,c) float32 grid attributes in the padded index space
     "images",             # shading.images.ImageTable read by image-texture opcodes (empty: none)
+    # A moving medium (medium_motion.py): world_to_index and frame[0] are rewritten per path time.
+    "motion_steps",       # int, the object's motion steps (1: static)
+    "motion",             # (1,S,16) float64 decomposed steps (instance_motion.motion_table)
+    "object_to_index",    # (3,4) float64 object -> padded index space
 ])
 
 #: Uniform dimensions reserved per stream.

@@ -47,6 +47,7 @@ import numpy as np
 
 from .grid_kernels import (FLAG_BUDGET, FLAG_LOOKUPS, FLAG_MAJORANT, FLAG_RESIDUAL, N_FLAGS, TRACKING_BUDGET, GridTables,
                            box_interval_many, coefficients_many, dda_cells1, density_many, track_many)
+from .medium_motion import motion_fields
 from .scene import Mesh, SceneError, rgb
 from .shading.images import empty_image_table
 
@@ -155,6 +156,8 @@ class GridMedium:
     """
 
     is_homogeneous = False
+    motion = None  # (S, 3, 4) object -> world over the shutter: set_motion
+    motion_object_to_world = None
 
     def __init__(self, name: str, density, index_to_world, sigma_s, sigma_a, *, g: float = 0.0,
                  emission=0.0, scatter_grid=None, absorb_grid=None, emission_grid=None,
@@ -322,14 +325,40 @@ class GridMedium:
                                [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6],    # y = 0, y = 1
                                [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])   # z = 0, z = 1
 
+    def set_motion(self, transforms, object_to_world):
+        """Move the medium with its object over the shutter, as Cycles shades a moving volume
+        (medium_motion.py): transforms (S >= 2, 3|4, 4) object -> world at S evenly spaced shutter
+        steps; object_to_world (3|4, 4) is the transform the medium was built at (its
+        index_to_world = object_to_world @ index_to_object; the exporter's shutter centre)."""
+        transforms = np.asarray(transforms, dtype=np.float64)
+        reference = np.asarray(object_to_world, dtype=np.float64)
+        if transforms.ndim != 3 or len(transforms) < 2 or transforms.shape[1] not in (3, 4) \
+                or transforms.shape[2] != 4 or reference.shape not in ((3, 4), (4, 4)):
+            raise SceneError(f"medium '{self.name}': motion must be (S >= 2, 3 or 4, 4) transforms and a (4, 4) "
+                             f"reference, got {transforms.shape} and {reference.shape}")
+        linear = transforms[:, :3, :3]
+        if not (np.all(np.isfinite(transforms)) and np.all(np.isfinite(reference))) \
+                or np.min(np.abs(np.linalg.det(linear))) < 1e-30 or abs(np.linalg.det(reference[:3, :3])) < 1e-30:
+            raise SceneError(f"medium '{self.name}': its motion transforms are singular or not finite")
+        self.motion = np.ascontiguousarray(transforms[:, :3, :])
+        self.motion_object_to_world = np.vstack([reference[:3], [0.0, 0.0, 0.0, 1.0]])
+
     def boundary_mesh(self, material_id: int) -> Mesh:
         """A closed box mesh (outward normals) around the medium, for a null-surface material whose
-        medium is this grid: the volume-stack boundary, as Cycles' volume bounds mesh."""
+        medium is this grid: the volume-stack boundary, as Cycles' volume bounds mesh. A moving
+        medium's box is an object-space mesh placed by its motion steps (as a moving fog box)."""
         triangles = self._BOX_TRIANGLES
-        if np.linalg.det(self.index_to_world[:3, :3]) < 0:  # a mirroring transform flips winding
+        materials = np.full(len(triangles), int(material_id), dtype=np.int32)
+        if self.motion is None:
+            if np.linalg.det(self.index_to_world[:3, :3]) < 0:  # a mirroring transform flips winding
+                triangles = triangles[:, ::-1]
+            return Mesh(f"{self.name} bounds", self.box_corners_world(), triangles, materials)
+        to_object = np.linalg.inv(self.motion_object_to_world)
+        if np.linalg.det((to_object @ self.index_to_world)[:3, :3]) < 0:  # instances flip their own mirroring
             triangles = triangles[:, ::-1]
-        return Mesh(f"{self.name} bounds", self.box_corners_world(), triangles,
-                    np.full(len(triangles), int(material_id), dtype=np.int32))
+        corners = self.box_corners_world() @ to_object[:3, :3].T + to_object[:3, 3]
+        return Mesh(f"{self.name} bounds", corners, triangles, materials,
+                    instances=self.motion_object_to_world[None, :3], motion=self.motion[None])
 
     # ------------------------------------------------------------------------------------------
     # Serialisation (for the .vpscene format: a JSON header plus named arrays)
@@ -347,18 +376,33 @@ class GridMedium:
             grid = getattr(self, key)
             if grid is not None:
                 arrays[key] = grid[inner]
+        self._motion_record(header, arrays)
         return header, arrays
+
+    def _motion_record(self, header: dict, arrays: dict):
+        """A moving medium's record: its motion steps (array "motion") and reference transform."""
+        if self.motion is not None:
+            header["motion_object_to_world"] = self.motion_object_to_world.tolist()
+            arrays["motion"] = self.motion
+
+    def _load_motion(self, header: dict, arrays: dict):
+        if "motion" in arrays or "motion_object_to_world" in header:
+            if "motion" not in arrays or "motion_object_to_world" not in header:
+                raise SceneError(f"medium record '{self.name}': motion and motion_object_to_world go together")
+            self.set_motion(arrays["motion"], header["motion_object_to_world"])
 
     @classmethod
     def from_record(cls, header: dict, arrays: dict, debug: bool = False) -> "GridMedium":
         if header.get("type") != "grid" or "density" not in arrays:
             raise SceneError(f"grid medium record '{header.get('name')}' is incomplete")
-        return cls(header["name"], arrays["density"], np.asarray(header["index_to_world"]),
-                   header["sigma_s"], header["sigma_a"], g=header.get("g", 0.0),
-                   emission=header.get("emission", 0.0), scatter_grid=arrays.get("scatter_grid"),
-                   absorb_grid=arrays.get("absorb_grid"), emission_grid=arrays.get("emission_grid"),
-                   majorant_resolution=header.get("majorant_resolution", DEFAULT_MAJORANT_RESOLUTION),
-                   debug=debug)
+        medium = cls(header["name"], arrays["density"], np.asarray(header["index_to_world"]),
+                     header["sigma_s"], header["sigma_a"], g=header.get("g", 0.0),
+                     emission=header.get("emission", 0.0), scatter_grid=arrays.get("scatter_grid"),
+                     absorb_grid=arrays.get("absorb_grid"), emission_grid=arrays.get("emission_grid"),
+                     majorant_resolution=header.get("majorant_resolution", DEFAULT_MAJORANT_RESOLUTION),
+                     debug=debug)
+        medium._load_motion(header, arrays)
+        return medium
 
     def memory_bytes(self) -> int:
         arrays = [self.density, self.scatter_grid, self.absorb_grid, self.emission_grid, self.majorant_grid,
@@ -393,7 +437,8 @@ class GridMedium:
             index_to_cell=self.majorant_shape / (self.shape - 1).astype(np.float64),
             g=self.g,
             flags=self._flags, violation=self._violation, stop=self._stop,
-            **self._program_tables())
+            **self._program_tables(),
+            **motion_fields(self.motion, self.motion_object_to_world, self.world_to_index))
 
     _NO_GRID = np.zeros((1, 1, 1, 3), dtype=np.float32)
     _NO_PROGRAM = dict(has_program=False, program_code=np.zeros(1, np.int32), program_init=np.zeros(1),
@@ -405,10 +450,12 @@ class GridMedium:
         return self._NO_PROGRAM
 
     def _call_tables(self) -> GridTables:
-        """Tables with a fresh violation record, private to one numpy-facing call."""
+        """Tables with a fresh violation record and their own frames (a moving medium rewrites
+        them per path: medium_motion.py), private to one call or batch."""
         tables = self.tables
         return tables._replace(flags=np.zeros(N_FLAGS, dtype=np.int64), violation=np.zeros((2, 5)),
-                               registers=np.zeros(tables.program_init.shape[0]))
+                               registers=np.zeros(tables.program_init.shape[0]),
+                               world_to_index=tables.world_to_index.copy(), frame=tables.frame.copy())
 
     def check_flags(self, tables: GridTables) -> int:
         """Read and clear what the kernels recorded in tables.flags. Returns how many tracking calls

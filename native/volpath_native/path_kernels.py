@@ -32,6 +32,7 @@ from .bsdfs.closures import (LABEL_DIFFUSE, LABEL_TRANSMIT, LABEL_TRANSPARENT, s
                              surface_eval, surface_is_transmissive, surface_sample, surface_transparency)
 from .camera import camera_ray1, ray_time1
 from .film import filter_offset1
+from .medium_motion import place_at_time
 from .grid_kernels import (STREAM_DIMENSIONS, grid_attenuation, grid_free_flight, grid_nee_distance_pdf,
                            grid_nee_distance_sample, grid_scattering, grid_transmittance)
 from .jit import inline_stage_kernel, stage_kernel
@@ -171,13 +172,14 @@ def inside_grid(S, C, p):
 
 
 @stage_kernel
-def grids_transmittance(S, GR, C, p, o, d, dist, key, stream_of):
-    """Product of ratio-tracking estimates (RGB) over the grid volumes path p's stack is inside;
-    stream_of(grid) -> first dimension (see grid_stream)."""
+def grids_transmittance(S, GR, C, p, o, d, dist, key, stream_of, time):
+    """Product of ratio-tracking estimates (RGB) over the grid volumes path p's stack is inside,
+    each placed at shutter time `time`; stream_of(grid) -> first dimension (see grid_stream)."""
     t0 = t1 = t2 = 1.0
     for v in range(S.vol_grid.shape[0]):
         gi = S.vol_grid[v]
         if C[p, v] > 0 and gi >= 0:
+            place_at_time(GR[gi], time)
             r = grid_transmittance(GR[gi], o[0], o[1], o[2], d[0], d[1], d[2], dist, key, stream_of + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS))
             t0, t1, t2 = t0 * r[0], t1 * r[1], t2 * r[2]
     return t0, t1, t2
@@ -471,7 +473,7 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
                     n_shadow = _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
                                          Q, n_shadow, margin)
                 beta, scatter, t_scatter, event_g, grid_event = _grid_segment(
-                    S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat)
+                    S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat, F[p, TIME])
             elif not tat and _max3(ss) > 0.0:
                 if n_lights > 0:
                     n_shadow = _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
@@ -522,7 +524,7 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
                         weight = _mul3(weight, transmittance3(st, local_t))
                     if in_grid:
                         weight = _mul3(weight, grids_transmittance(S, GR, C, p, o, d, local_t, K[p],
-                                                                   grid_stream(iteration, P_LAMP, k, 0)))
+                                                                   grid_stream(iteration, P_LAMP, k, 0), F[p, TIME]))
                 _add_radiance(L, pid, _scale3(_mul3(weight, (r0, r1, r2)), w))
 
         # ---- escaped rays ------------------------------------------------------------------
@@ -553,7 +555,7 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
                 wx, wy, wz, pdf = hg_sample1(d[0], d[1], d[2], g, u1, u2)  # phase / pdf == 1
                 wo = (wx, wy, wz)
             if in_grid:  # MIS needs the pdf of the whole phase mixture at x (as grid NEE uses)
-                pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, _dot3(d, wo))[1]
+                pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, _dot3(d, wo), F[p, TIME])[1]
             _scatter_to(S, F, I, p, x, wo, pdf, VOLUME, S.volume_bounces)
             _set_mis_origin(F, I, p, o, d, t_seg, MODE_VOLUME)  # the segment its NEE chose a light for
             alive[p] = _russian_roulette(S, F, I, K, p, iteration)
@@ -895,8 +897,9 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
 # earlier of two independent collision processes is the first event of their sum).
 # ---------------------------------------------------------------------------------------------
 @inline_stage_kernel
-def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat):
-    """Free flight of path p inside grid volumes; returns (beta, scattered, t, event g, grid event)."""
+def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat, time):
+    """Free flight of path p inside grid volumes (placed at its shutter time); returns (beta,
+    scattered, t, event g, grid event)."""
     key = K[p]
     stream0 = grid_stream(iteration, P_FREE_FLIGHT, 0, 0)
     if tat:  # attenuation and emission only (Cycles adds volume emission on these paths too)
@@ -904,6 +907,7 @@ def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st
         for v in range(S.vol_grid.shape[0]):
             gi = S.vol_grid[v]
             if C[p, v] > 0 and gi >= 0:
+                place_at_time(GR[gi], time)
                 w0, w1, w2, e0, e1, e2 = grid_attenuation(GR[gi], o[0], o[1], o[2], d[0], d[1], d[2], t_seg, key,
                                                           stream0 + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS))
                 _add_radiance(L, pid, _mul3(_mul3(beta_in, w), (e0, e1, e2)))
@@ -924,6 +928,7 @@ def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st
         if C[p, v] <= 0 or gi < 0:
             continue
         G = GR[gi]
+        place_at_time(G, time)
         thr = _mul3(beta, w)
         t, scattered, w0, w1, w2, e0, e1, e2 = grid_free_flight(
             G, o[0], o[1], o[2], d[0], d[1], d[2], t_end, key,
@@ -950,7 +955,7 @@ def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st
 
 
 @stage_kernel
-def _grid_phase_mixture(S, GR, C, p, x, ss_hom, g_hom, cos_theta):
+def _grid_phase_mixture(S, GR, C, p, x, ss_hom, g_hom, cos_theta, time):
     """Sum of sigma_s HG over every medium scattering at x (homogeneous components and grids) and
     the mixture's pdf (weights: mean sigma_s), as _phase_mixture_eval for grid paths."""
     f0 = f1 = f2 = 0.0
@@ -972,6 +977,7 @@ def _grid_phase_mixture(S, GR, C, p, x, ss_hom, g_hom, cos_theta):
         gi = S.vol_grid[v]
         if C[p, v] <= 0 or gi < 0:
             continue
+        place_at_time(GR[gi], time)
         sk = grid_scattering(GR[gi], x[0], x[1], x[2])
         ph = hg_eval1(GR[gi].g, cos_theta)
         f0, f1, f2 = f0 + sk[0] * ph, f1 + sk[1] * ph, f2 + sk[2] * ph
@@ -1013,6 +1019,7 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
     u_t = _u(K, p, iteration, D_MED_T)
     u_tech = _u(K, p, iteration, D_MED_TECH)
     G = GR[_first_grid(S, C, p)]
+    place_at_time(G, F[p, TIME])
     sigma_extra = (st[0] + st[1] + st[2]) / 3.0
     if u_tech < prob_eq:
         t = equiangular_sample1(setup, u_t)
@@ -1028,12 +1035,12 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
         return n_shadow
     x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, sel, o, d,
                                                                     t, F[p, TIME])
-    f, phase_pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, cos_theta)
+    f, phase_pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, cos_theta, F[p, TIME])
     w = power_heuristic(light_pdf, phase_pdf) if light_pdf > 0.0 else 1.0
     contrib = _scale3(_mul3(_mul3(_mul3(beta, transmittance3(st, t)), f), value), w / pdf_t)
     if _max3(contrib) > 0.0:
         contrib = _mul3(contrib, grids_transmittance(S, GR, C, p, o, d, t, K[p],
-                                                     grid_stream(iteration, P_NEE_SEGMENT, 0, 0)))
+                                                     grid_stream(iteration, P_NEE_SEGMENT, 0, 0), F[p, TIME]))
         n_shadow = _push_shadow(Q, C, K, p, n_shadow, x, wi, dist, contrib, st, margin,
                                 I[p, PID], P_SHADOW_MEDIUM, F[p, TIME])
     return n_shadow
@@ -1075,7 +1082,7 @@ def shadow_step(S, GR, SN, BT, CB, SP, SPS, Q, m, hit_t, hit_prim, hit_inst, hit
         tr = transmittance3(_get3(SF, q, S_ST), length)
         if S.has_grids:
             tr = _mul3(tr, grids_transmittance(S, GR, SC, q, _get3(SF, q, S_O), _get3(SF, q, S_D), seg, SK[q],
-                                               grid_stream(iteration, SI[q, SI_PURPOSE], step, 0)))
+                                               grid_stream(iteration, SI[q, SI_PURPOSE], step, 0), SF[q, S_TIME]))
         d = _get3(SF, q, S_D)
         front = False
         if hit:

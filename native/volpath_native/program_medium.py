@@ -248,6 +248,10 @@ class ProgramMedium(GridMedium):
         return (f"volume '{self.name}': {count} rays would have needed more than {TRACKING_BUDGET} "
                 "collisions through its procedural density and were treated as opaque")
 
+    def set_motion(self, transforms, object_to_world=None):
+        """GridMedium.set_motion; the reference defaults to the medium's object transform."""
+        super().set_motion(transforms, self.object_to_world if object_to_world is None else object_to_world)
+
     def boundary_mesh(self, material_id: int):
         """Volume objects: the box of their grids, as GridMedium; meshes bound their own medium."""
         if self.grid_index_to_world is None:
@@ -269,6 +273,7 @@ class ProgramMedium(GridMedium):
             header["grid_index_to_world"] = self.grid_index_to_world.tolist()
         arrays = {"program_code": p.code, "program_init": p.init, "program_tables": p.tables,
                   "attributes": self.attributes}
+        self._motion_record(header, arrays)
         return header, arrays
 
     @classmethod
@@ -287,4 +292,5 @@ class ProgramMedium(GridMedium):
                      attributes=arrays.get("attributes"), majorant_resolution=header.get("majorant_resolution",
                                                                                         DEFAULT_MAJORANT_RESOLUTION),
                      grid_index_to_world=header.get("grid_index_to_world"), debug=debug)
+        medium._load_motion(header, arrays)
         return medium

@@ -65,7 +65,7 @@ _RANGES = {
 # The header of a grid medium (grid_medium.GridMedium.to_record): field -> (kind, required).
 _GRID_FIELDS = {"type": ("str", True), "name": ("str", True), "sigma_s": ("rgb", True), "sigma_a": ("rgb", True),
                 "g": ("float", False), "emission": ("rgb", False), "index_to_world": ("matrix4", True),
-                "majorant_resolution": ("int", False)}
+                "majorant_resolution": ("int", False), "motion_object_to_world": ("matrix4", False)}
 _GRID_ARRAYS = {"density": 3, "scatter_grid": 4, "absorb_grid": 4, "emission_grid": 4}  # name -> ndim
 # A shader-program medium (program_medium.ProgramMedium.to_record); its program is checked by
 # ShaderProgram.validate when loaded (opcodes and register operands).
@@ -73,7 +73,7 @@ _PROGRAM_FIELDS = {"type": ("str", True), "name": ("str", True), "g": ("float", 
                    "object_to_world": ("matrix4", True), "bounds": ("any", True), "object_to_generated": ("any", True),
                    "majorant_resolution": ("int", False), "program_name": ("str", False),
                    "program_varying": ("bool", False), "program_attributes": ("any", False),
-                   "grid_index_to_world": ("matrix4", False)}
+                   "grid_index_to_world": ("matrix4", False), "motion_object_to_world": ("matrix4", False)}
 _PROGRAM_ARRAYS = {"program_code": 1, "program_init": 1, "program_tables": 1, "attributes": 4}
 _MESH_FIELDS = {"name": ("str", True), "smooth": ("bool", False), "attributes": ("list", False),
                 "framed": ("bool", False), "instances": ("bool", False), "motion": ("bool", False),

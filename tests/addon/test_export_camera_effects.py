@@ -140,17 +140,28 @@ def test_camera_motion_steps_over_the_shutter(scene, position, centre):
     assert not any("move during the shutter" in w for w in warnings)
 
 
-def test_moving_object_with_a_varying_volume_stays_at_the_centre_and_is_named(scene):
+def test_moving_object_with_a_varying_volume_moves_its_medium(scene):
+    """A mesh whose volume shader varies in space moves with its medium: the mesh gets its motion
+    steps and its program medium the same transforms (Cycles shades it at the ray's time)."""
     from addon_scenes import node_material
     from test_export_procedural_volumes import height_fog
 
     scene.render.use_motion_blur = True
+    scene.render.motion_blur_shutter = 0.5
     box = add_mesh(scene, "Mover", material=node_material("Fog", volume=height_fog))
-    _animate(box, "location", (0.0, 0.0, 0.0), (0.0, 0.0, 3.0))
+    _animate(box, "location", (0.0, 0.0, 0.0), (0.0, 0.0, 4.0))  # 2 units per frame
     exported, warnings = export(scene)
-    assert exported.meshes[0].motion is None
-    np.testing.assert_allclose(exported.meshes[0].vertices.mean(axis=0), (0, 0, 1.5), atol=1e-5)
-    assert any("'Mover'" in w and "shutter centre" in w for w in warnings), warnings
+    (mesh,) = exported.meshes
+    assert mesh.motion_steps == 3
+    medium = exported.media[exported.materials[mesh.material_ids[0]].medium]
+    assert not medium.is_homogeneous and medium.motion is not None
+    np.testing.assert_allclose(medium.motion[:, 2, 3], [1.5, 2.0, 2.5], atol=1e-5)
+    np.testing.assert_allclose(medium.motion_object_to_world[2, 3], 2.0, atol=1e-5)
+    assert not any("shutter centre" in w or "move during the shutter" in w for w in warnings), warnings
+    # planted: a still object's medium gets no motion
+    scene.render.use_motion_blur = False
+    exported, _ = export(scene)
+    assert all(getattr(m, "motion", None) is None for m in exported.media)
 
 
 def test_zero_shutter_warns_and_does_not_move(scene):
@@ -243,6 +254,28 @@ def test_deforming_mesh_gets_its_vertex_positions_over_the_shutter(scene):
     assert mesh.vertex_motion_steps == 3 and mesh.motion is None
     shift = mesh.vertex_motion[:, :, 2] - mesh.vertices[None, :, 2]
     np.testing.assert_allclose(shift, [[-0.125] * 8, [0.0] * 8, [0.125] * 8], atol=1e-5)
+
+
+def test_deforming_varying_volume_keeps_its_deformation_inside_its_medium_box(scene):
+    """A mesh with a varying volume deformed during the shutter: its boundary deforms (vertex
+    steps) and its medium's box holds every step's vertices (Cycles evaluates the shader wherever
+    the deformed boundary goes; its density follows the object's transform only)."""
+    from addon_scenes import node_material
+    from test_export_procedural_volumes import height_fog
+
+    scene.render.use_motion_blur = True
+    obj = add_mesh(scene, "Wobble", material=node_material("Fog", volume=height_fog))
+    warp = obj.modifiers.new("Scale", "DISPLACE")
+    warp.direction = "Z"
+    _animate(warp, "strength", 0.0, 2.0)  # +-0.125 along z over the shutter (see above)
+    exported, warnings = export(scene)
+    (mesh,) = exported.meshes
+    assert mesh.vertex_motion_steps == 3
+    medium = exported.media[exported.materials[mesh.material_ids[0]].medium]
+    lo, hi = medium.object_bounds
+    assert lo[2] <= mesh.vertex_motion[..., 2].min() + 1e-6 and hi[2] >= mesh.vertex_motion[..., 2].max() - 1e-6
+    assert hi[2] - lo[2] > np.ptp(mesh.vertices[:, 2]) + 0.2  # planted: the frame's box alone is too small
+    assert not any("shutter centre" in w for w in warnings), warnings
 
 
 def test_moving_light_stays_at_the_shutter_centre_as_in_cycles(scene):

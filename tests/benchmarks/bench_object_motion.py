@@ -3,6 +3,9 @@ pytest). The Cornell fog scene of bench_integrator with a small emissive panel u
 rendered still, then with object motion (3 steps: the two blocks sliding and turning -- Embree
 motion instances), with the emissive panel moving too (a deforming world copy sampled at each
 ray's time), and with the fog box drifting as well (per-path volume stacks at each ray's time).
+Then bench_cloud's 128^3 cloud (a grid medium in its bounds box, sun and sky), still and moving
+(sliding and turning: its lookups, majorant DDA and box placed at each path's time,
+medium_motion.py), the moving cloud's time as a ratio to the still cloud's.
 Each render repeated, the best time kept. Cycles' aim: motion blur within 1.5x of a static render.
 Usage: python tests/benchmarks/bench_object_motion.py [--resolution N] [--spp N] [--repeats N]
 """
@@ -13,8 +16,10 @@ import time
 
 import numpy as np
 
-from volpath_native import Material, Mesh, render
+from volpath_native import Camera, Film, Material, Mesh, RenderSettings, Scene, SunLight, World, render
+from volpath_native.grid_medium import GridMedium, principled_volume_coefficients
 
+from bench_cloud import CLOUD_SIZE, cloud_density
 from bench_integrator import cornell_fog_scene
 
 
@@ -48,6 +53,25 @@ def scene_variant(label, resolution, spp):
     return scene
 
 
+def cloud_variant(moving: bool, resolution, spp):
+    """bench_cloud's cloud as a grid medium (white, g = 0.5, density x 6) lit by a sun and a sky,
+    seen from the side; moving: 3 steps sliding 0.3 m and turning 0.3 rad over the shutter."""
+    sigma_s, sigma_a = principled_volume_coefficients(0.95, 6.0)
+    index_to_object = np.diag([CLOUD_SIZE / 128] * 3 + [1.0])
+    index_to_object[:3, 3] = -CLOUD_SIZE / 2
+    steps = np.stack([np.vstack([_placed(a * 0.3, [a * 0.3, 0, 0]), [0, 0, 0, 1]]) for a in (-1.0, 0.0, 1.0)])
+    cloud = GridMedium("cloud", cloud_density(), steps[1] @ index_to_object, sigma_s, sigma_a, g=0.5)
+    if moving:
+        cloud.set_motion(steps, steps[1])
+    look = np.array([[1.0, 0, 0, 0], [0, 0, 1, -5.0], [0, -1, 0, 0.6], [0, 0, 0, 1]])  # from -y towards +y
+    look[:3, :3] = np.array([[1, 0, 0], [0, 0, 1], [0, -1, 0]]).T
+    return Scene(camera=Camera(look, fov=2 * np.arctan(18 / 40)), film=Film(resolution, resolution),
+                 meshes=[cloud.boundary_mesh(0)], materials=[Material("cloud bounds", surface="null", medium=0)],
+                 media=[cloud], lights=[SunLight("sun", [-0.4, 0.5, -0.75], 4.0, angle=np.radians(1.0))],
+                 world=World(background=[0.21, 0.3, 0.48]),
+                 settings=RenderSettings(samples=spp, seed=1, threads=1))
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--resolution", type=int, default=96)
@@ -62,6 +86,13 @@ def main():
         times[label] = best
         print(f"{label:>22}: {best:.3f} s  ({args.resolution}^2 x {args.spp} spp, 1 thread)  "
               f"{best / times['still']:.3f}x the still render", flush=True)
+    for label in ("cloud still", "cloud moving"):
+        scene = cloud_variant(label == "cloud moving", args.resolution, args.spp)
+        render(scene)
+        best = min(_timed(scene) for _ in range(args.repeats))
+        times[label] = best
+        print(f"{label:>22}: {best:.3f} s  ({args.resolution}^2 x {args.spp} spp, 1 thread)  "
+              f"{best / times['cloud still']:.3f}x the still cloud", flush=True)
 
 
 def _timed(scene):
