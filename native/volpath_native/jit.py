@@ -33,6 +33,7 @@ import shutil
 from pathlib import Path
 
 import numba
+import numba.core.typing.templates
 from numba.core import caching
 
 
@@ -129,6 +130,48 @@ KERNELS_SEEDED = seed_from_prebuilt(KERNEL_CACHE_DIR)
 numba.config.CACHE_DIR = KERNEL_CACHE_DIR
 if KernelCacheLocator not in caching.CacheImpl._locator_classes:
     caching.CacheImpl._locator_classes.insert(0, KernelCacheLocator)
+
+def widened_scalar(t):
+    """The one type a kernel parameter is compiled for when a caller passes scalar type t:
+    literals lose their value (a constant 0 or a closure kind is a run-time int64), narrower
+    ints become int64 and float32 becomes float64. Arrays, tuples and records are unchanged."""
+    t = numba.types.unliteral(t)
+    if isinstance(t, numba.types.Integer) and t.signed and t.bitwidth < 64:
+        return numba.types.int64
+    if t == numba.types.float32:
+        return numba.types.float64
+    return t
+
+
+_numba_get_call_template = numba.core.dispatcher.Dispatcher.get_call_template
+
+
+def _get_call_template(self, args, kws):
+    """Dispatcher.get_call_template for kernels called from kernels: one compiled signature per
+    parameter's scalar kind. numba compiles a callee for the argument types as it sees them
+    during type inference, and those include transient ones -- `count = 0` before a loop is
+    first Literal[int](0), a constant argument is Literal[int](k), hit arrays give int32 or
+    float32 -- so a callee, and all it calls, compiled up to 16 times. Here it compiles once for
+    the widened types and numba converts the caller's values to them (the template resolves the
+    call against the compiled signatures). A callee that cannot type with widened arguments
+    (one needing a literal) is compiled for the arguments as given, as numba does."""
+    if not (self._can_compile and getattr(self.py_func, "__module__", "").startswith(_OUR_MODULES)):
+        return _numba_get_call_template(self, args, kws)
+    pysig, folded = self._compiler.fold_argument_types(args, kws)
+    widened = tuple(widened_scalar(a) for a in folded)
+    try:
+        self.compile(widened)
+    except numba.core.errors.TypingError:
+        return _numba_get_call_template(self, args, kws)
+    name = self.py_func.__name__
+    template = numba.core.typing.templates.make_concrete_template(
+        f"CallTemplate({name})", key=name, signatures=self.nopython_signatures)
+    return template, pysig, folded, {}
+
+
+_OUR_MODULES = __package__ + "."
+numba.core.dispatcher.Dispatcher.get_call_template = _get_call_template
+
 
 kernel = numba.njit(cache=True, nogil=True, error_model="numpy")
 # The per-path stage loops: no allocation inside (callers pass every buffer), hence no reference

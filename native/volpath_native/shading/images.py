@@ -154,60 +154,74 @@ def _wrap(x, width, extension):
 
 
 @inline_stage_kernel
-def _texel(IT, index, x, y, channel):
-    """One channel of texel (x, y); 0 outside the image (read_clip)."""
+def _texel(IT, index, x, y):
+    """RGBA of texel (x, y) (a 1-channel image repeats its value; alpha 1); 0 outside the image
+    (read_clip)."""
     info = IT.info
     w, h = info[index, I_WIDTH], info[index, I_HEIGHT]
     if x < 0 or x >= w or y < 0 or y >= h:
-        return 0.0
+        return 0.0, 0.0, 0.0, 0.0
     c = info[index, I_CHANNELS]
-    at = info[index, I_OFFSET] + (y * w + x) * c + (channel if c > 1 else 0)
+    at = info[index, I_OFFSET] + (y * w + x) * c
+    scale = 1.0 / 255.0 if info[index, I_IS_BYTE] else 1.0
+    if c == 1:
+        v = (IT.bytes[at] if info[index, I_IS_BYTE] else IT.floats[at]) * scale
+        return v, v, v, 1.0
     if info[index, I_IS_BYTE]:
-        return IT.bytes[at] * (1.0 / 255.0)
-    return float(IT.floats[at])
+        return (IT.bytes[at] * scale, IT.bytes[at + 1] * scale, IT.bytes[at + 2] * scale,
+                IT.bytes[at + 3] * scale)
+    return float(IT.floats[at]), float(IT.floats[at + 1]), float(IT.floats[at + 2]), float(IT.floats[at + 3])
+
+
+@inline_stage_kernel
+def _add_weighted(total, weight, texel):
+    return (total[0] + weight * texel[0], total[1] + weight * texel[1], total[2] + weight * texel[2],
+            total[3] + weight * texel[3])
 
 
 @stage_kernel
-def _interp_channel(IT, index, x, y, channel, interpolation, extension):
+def _interp_rgba(IT, index, x, y, interpolation, extension):
+    """All four channels at once: the weights and wrapped indices are computed once per lookup
+    (one compiled signature instead of one per channel)."""
     info = IT.info
     w, h = info[index, I_WIDTH], info[index, I_HEIGHT]
+    zero = (0.0, 0.0, 0.0, 0.0)
     if interpolation == INTERP_CLOSEST:
         _, ix = _frac(x * w)
         _, iy = _frac(y * h)
         if extension == EXT_CLIP:
             if ix < 0 or ix >= w or iy < 0 or iy >= h:
-                return 0.0
-        return _texel(IT, index, _wrap(ix, w, extension), _wrap(iy, h, extension), channel)
+                return zero
+        return _texel(IT, index, _wrap(ix, w, extension), _wrap(iy, h, extension))
     # a -0.5 offset centres the samples around the point
     tx, ix = _frac(x * w - 0.5)
     ty, iy = _frac(y * h - 0.5)
     if interpolation == INTERP_LINEAR:
         if extension == EXT_CLIP:
             if ix < -1 or ix >= w or iy < -1 or iy >= h:
-                return 0.0
+                return zero
             nix, niy = ix + 1, iy + 1
         else:
             nix, niy = _wrap(ix + 1, w, extension), _wrap(iy + 1, h, extension)
             ix, iy = _wrap(ix, w, extension), _wrap(iy, h, extension)
-        return ((1.0 - ty) * (1.0 - tx) * _texel(IT, index, ix, iy, channel)
-                + (1.0 - ty) * tx * _texel(IT, index, nix, iy, channel)
-                + ty * (1.0 - tx) * _texel(IT, index, ix, niy, channel)
-                + ty * tx * _texel(IT, index, nix, niy, channel))
+        total = _add_weighted(zero, (1.0 - ty) * (1.0 - tx), _texel(IT, index, ix, iy))
+        total = _add_weighted(total, (1.0 - ty) * tx, _texel(IT, index, nix, iy))
+        total = _add_weighted(total, ty * (1.0 - tx), _texel(IT, index, ix, niy))
+        return _add_weighted(total, ty * tx, _texel(IT, index, nix, niy))
     # cubic B-spline over 4 x 4 texels (interp_cubic; every extension reads through read_clip)
     if extension == EXT_CLIP and (ix < -2 or ix > w or iy < -2 or iy > h):
-        return 0.0
-    total = 0.0
+        return zero
+    total = zero
     for j in range(4):
         yy = iy - 1 + j
         if extension != EXT_CLIP:
             yy = _wrap(yy, h, extension)
-        row = 0.0
+        wy = _bspline(j, ty)
         for i in range(4):
             xx = ix - 1 + i
             if extension != EXT_CLIP:
                 xx = _wrap(xx, w, extension)
-            row += _bspline(i, tx) * _texel(IT, index, xx, yy, channel)
-        total += _bspline(j, ty) * row
+            total = _add_weighted(total, wy * _bspline(i, tx), _texel(IT, index, xx, yy))
     return total
 
 
@@ -243,13 +257,8 @@ def image_lookup(IT, index, x, y, interpolation, extension):
     # keep the integer texel index in range of int64 for absurd coordinates
     x = min(max(x, -1e15), 1e15)
     y = min(max(y, -1e15), 1e15)
-    r = _interp_channel(IT, index, x, y, 0, interpolation, extension)
-    if IT.info[index, I_CHANNELS] == 1:
-        return r, r, r, 1.0
-    g = _interp_channel(IT, index, x, y, 1, interpolation, extension)
-    b = _interp_channel(IT, index, x, y, 2, interpolation, extension)
-    a = _interp_channel(IT, index, x, y, 3, interpolation, extension)
-    return r, g, b, a
+    r, g, b, a = _interp_rgba(IT, index, x, y, interpolation, extension)
+    return r, g, b, (1.0 if IT.info[index, I_CHANNELS] == 1 else a)
 
 
 @stage_kernel
