@@ -46,7 +46,8 @@ from .media import (channel_probabilities1, distance_pdf1, emission_integral1, e
                     transmittance1, transmittance3, truncated_distance_pdf1)
 from .mis import mis_weight, power_heuristic
 from .phase import hg_eval1, hg_sample1
-from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, LENS_U_DIM, LENS_V_DIM, SHUTTER_TIME_DIM, path_key1, uniform1
+from .sample_pattern import path_key1, sample1
+from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, LENS_U_DIM, LENS_V_DIM, SHUTTER_TIME_DIM
 from .instance_motion import normal_map1
 from .motion_triangles import deform_step, deformed_corners1, is_deforming
 from .surface_programs import (frame_at_time, has_program_emission, program_emission, program_shading_normal,
@@ -100,39 +101,39 @@ SceneTables = namedtuple("SceneTables", [
     "volume_sampling"])
 
 
-@inline_stage_kernel
+@stage_kernel
 def _u(K, p, iteration, offset):
-    return uniform1(K[p], CAMERA_DIMS + iteration * DIMS_PER_EVENT + offset)
+    return sample1(K[p], CAMERA_DIMS + iteration * DIMS_PER_EVENT + offset)
 
 
-@inline_stage_kernel
+@stage_kernel
 def _get3(A, p, col):
     return A[p, col], A[p, col + 1], A[p, col + 2]
 
 
-@inline_stage_kernel
+@stage_kernel
 def _set3(A, p, col, v):
     A[p, col] = v[0]
     A[p, col + 1] = v[1]
     A[p, col + 2] = v[2]
 
 
-@inline_stage_kernel
+@stage_kernel
 def _max3(v):
     return max(v[0], max(v[1], v[2]))
 
 
-@inline_stage_kernel
+@stage_kernel
 def _mul3(a, b):
     return a[0] * b[0], a[1] * b[1], a[2] * b[2]
 
 
-@inline_stage_kernel
+@stage_kernel
 def _scale3(a, s):
     return a[0] * s, a[1] * s, a[2] * s
 
 
-@inline_stage_kernel
+@stage_kernel
 def _dot3(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
@@ -141,7 +142,7 @@ def _dot3(a, b):
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
-@inline_stage_kernel
+@stage_kernel
 def _add_radiance(L, pid, v):
     """L[pid, :3] += v; components that are not finite or beyond float32's range are zeroed and
     the contribution counted in L[pid, 3] (Cycles zeroes non-finite components of every
@@ -155,7 +156,7 @@ def _add_radiance(L, pid, v):
         L[pid, 3] += 1.0
 
 
-@inline_stage_kernel
+@stage_kernel
 def grid_stream(iteration, purpose, step, grid):
     """First dimension of the stream of grid `grid` for this iteration/purpose/shadow step."""
     index = ((iteration * 5 + purpose) * _MAX_STEPS + min(step, _MAX_STEPS - 1)) * _MAX_GRIDS + grid
@@ -238,12 +239,12 @@ def start_paths(S, cam, filter_inverse, seed_key, crop, full_width, pixel, sampl
         px = x0 + pixel[p] % crop_width
         py = y0 + pixel[p] // crop_width
         key = path_key1(seed_key, py * full_width + px, sample[p])
-        lens_u = uniform1(key, LENS_U_DIM) if cam.aperture_size > 0.0 else 0.5
-        lens_v = uniform1(key, LENS_V_DIM) if cam.aperture_size > 0.0 else 0.5
-        time = ray_time1(cam, py, uniform1(key, SHUTTER_TIME_DIM))
+        lens_u = sample1(key, LENS_U_DIM) if cam.aperture_size > 0.0 else 0.5
+        lens_v = sample1(key, LENS_V_DIM) if cam.aperture_size > 0.0 else 0.5
+        time = ray_time1(cam, py, sample1(key, SHUTTER_TIME_DIM))
         origin, direction, tmax, seen = camera_ray1(
-            cam, px + 0.5 + filter_offset1(filter_inverse, uniform1(key, 0)),
-            py + 0.5 + filter_offset1(filter_inverse, uniform1(key, 1)), lens_u, lens_v, time)
+            cam, px + 0.5 + filter_offset1(filter_inverse, sample1(key, 0)),
+            py + 0.5 + filter_offset1(filter_inverse, sample1(key, 1)), lens_u, lens_v, time)
         alive[p] = seen
         if not seen:
             unseen += 1
@@ -358,7 +359,7 @@ def _phase_mixture_sample(S, C, p, d, u1, u2):
     return wo, f, pdf
 
 
-@inline_stage_kernel
+@stage_kernel
 def _write_ray(A, row, origin, direction, length, o32, d32, t32, out):
     """Row `out` of Embree's float32 ray buffers from a packed state row (paths: O, D, TMAX;
     shadow queue: S_O, S_D, S_REMAINING)."""
@@ -570,7 +571,7 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
     return n_shadow
 
 
-@inline_stage_kernel
+@stage_kernel
 def _set_mis_origin(F, I, p, x, n, t, mode):
     """Record where path p's last scattering vertex selected its light (light_tree)."""
     _set3(F, p, MIS_P, x)
@@ -1133,7 +1134,7 @@ def shadow_step(S, GR, SN, BT, CB, SP, SPS, Q, m, hit_t, hit_prim, hit_inst, hit
 # ---------------------------------------------------------------------------------------------
 # Queue plumbing
 # ---------------------------------------------------------------------------------------------
-@inline_stage_kernel
+@stage_kernel
 def _move_row(A, src, dst):
     for j in range(A.shape[1]):
         A[dst, j] = A[src, j]
