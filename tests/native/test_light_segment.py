@@ -284,3 +284,39 @@ def test_clipped_equiangular_is_unbiased_and_less_noisy():
     ratio = b.var() / a.var()
     print("variance clipped / unclipped", ratio)
     assert ratio < 0.2, ratio
+
+
+# ---------------------------------------------------------------------------------------------
+# Grid media NEE clips the same way: a constant grid renders like the homogeneous medium
+# ---------------------------------------------------------------------------------------------
+def _boxed_fog(medium, light, seed):
+    from native_helpers import box_mesh
+    cam = Camera(camera_at([0, 0, 4]), fov=np.radians(40), clip_start=0.0)
+    return Scene(camera=cam, film=tiny_box_film(8), meshes=[box_mesh("bound", [-0.9] * 3, [0.9] * 3, material=0)],
+                 materials=[Material("bound", surface="null", medium=0)], media=[medium], lights=[light],
+                 world=World(background=0.0), settings=RenderSettings(samples=512, seed=seed, volume_bounces=0))
+
+
+@pytest.mark.parametrize("light", ["spot", "area"])
+def test_grid_medium_lit_by_spot_or_area_matches_homogeneous(light):
+    from volpath_native.grid_medium import GridMedium
+    from native_helpers import block_z_scores
+    if light == "spot":
+        make = lambda size=np.radians(30): SpotLight("s", [1.6, 0.3, 0.0], 40 * POWER, radius=0.0,  # noqa: E731
+                                                     direction=[-1, 0, 0.1], spot_size=size, spot_blend=0.0)
+    else:
+        make = lambda: AreaLight("a", [0.2, 1.3, 0.5], [0.6, 0, 0], [0, 0.45, -0.45], 20 * POWER)  # noqa: E731
+    ss, sa, g = np.array([1.5, 0.8, 0.3]), np.array([0.2, 0.4, 0.1]), 0.4
+    n = 8
+    m = np.eye(4) * (2.0 / (n - 1))
+    m[3, 3], m[:3, 3] = 1.0, -1.0
+    grid = GridMedium("grid", np.ones((n, n, n), np.float32), m, ss, sa, g=g)
+    a = render(_boxed_fog(grid, make(), 1))
+    b = render(_boxed_fog(Medium("hom", ss, sa, g=g), make(), 2))
+    z = block_z_scores(a, b)
+    assert np.abs(z).max() < Z_LIMIT, np.abs(z).max()
+    assert b.image[..., :3].max() > 0.01 and (b.image[..., 1] <= 0.0).sum() < 60  # lit pixels exist
+    if light == "spot":
+        # planted: a 20 % narrower cone in one render is seen
+        c = render(_boxed_fog(Medium("hom", ss, sa, g=g), make(0.8 * np.radians(30)), 3))
+        assert np.abs(block_z_scores(a, c)).max() > Z_LIMIT
