@@ -7,9 +7,11 @@ unclipped one (same run)."""
 import numpy as np
 import pytest
 
-from volpath_native import AreaLight, Camera, Material, Medium, Mesh, PointLight, RenderSettings, Scene, SpotLight, World, render
+from volpath_native import (AreaLight, Camera, Material, Medium, Mesh, PointLight, RenderSettings, Scene, SpotLight,
+                            World, render)
 from volpath_native.accel import Accelerator
 from volpath_native.camera import CameraModel
+from volpath_native.grid_medium import GridMedium
 from volpath_native.jit import kernel
 from volpath_native.light_kernels import sample_light
 from volpath_native.light_segment import light_segment
@@ -17,7 +19,7 @@ from volpath_native.lights import LightSet
 from volpath_native.media import equiangular_pdf1, equiangular_sample1, equiangular_setup1
 from volpath_native.phase import hg_eval
 
-from native_helpers import Z_LIMIT, camera_at, chi2_critical, tiny_box_film, z_scores
+from native_helpers import Z_LIMIT, block_z_scores, box_mesh, camera_at, chi2_critical, tiny_box_film, z_scores
 
 POWER = np.array([100.0, 200.0, 50.0])
 
@@ -290,7 +292,6 @@ def test_clipped_equiangular_is_unbiased_and_less_noisy():
 # Grid media NEE clips the same way: a constant grid renders like the homogeneous medium
 # ---------------------------------------------------------------------------------------------
 def _boxed_fog(medium, light, seed):
-    from native_helpers import box_mesh
     cam = Camera(camera_at([0, 0, 4]), fov=np.radians(40), clip_start=0.0)
     return Scene(camera=cam, film=tiny_box_film(8), meshes=[box_mesh("bound", [-0.9] * 3, [0.9] * 3, material=0)],
                  materials=[Material("bound", surface="null", medium=0)], media=[medium], lights=[light],
@@ -299,8 +300,6 @@ def _boxed_fog(medium, light, seed):
 
 @pytest.mark.parametrize("light", ["spot", "area"])
 def test_grid_medium_lit_by_spot_or_area_matches_homogeneous(light):
-    from volpath_native.grid_medium import GridMedium
-    from native_helpers import block_z_scores
     if light == "spot":
         make = lambda size=np.radians(30): SpotLight("s", [1.6, 0.3, 0.0], 40 * POWER, radius=0.0,  # noqa: E731
                                                      direction=[-1, 0, 0.1], spot_size=size, spot_blend=0.0)
