@@ -281,35 +281,42 @@ def emission_integral1(emission, sigma_t, distance):
 
 # Equiangular sampling toward a point (Kulla & Fajardo 2012, "Importance Sampling Techniques for
 # Path Tracing in Participating Media", section 4.1; Cycles kernel/integrator/shade_volume.h).
-# The angles are theta = atan((t - delta) / D) at t = 0 and t_end. Only their difference (the
+# The angles are theta = atan((t - delta) / D) at t_start and t_end. Only their difference (the
 # span) is needed: tan(b - a) = (tan b - tan a) / (1 + tan a tan b) gives it with one atan2, and
-# the sample's tan(theta_0 + u span) expands the same way -- Cycles evaluates two atan2.
+# the sample's tan(theta_a + u span) expands the same way -- Cycles evaluates two atan2. The
+# segment [t_start, t_end] is the part a light reaches (light_segment.py; Cycles samples over
+# volume_valid_direct_ray_segment's t_range): the pdf is 0 outside it.
 @kernel
-def equiangular_setup1(o, d, t_end, light):
-    """(delta, D, span) of equiangular sampling toward `light` along the unit ray o + t d,
-    t in [0, t_end] (t_end may be inf): delta is the distance along the ray to the point nearest
-    the light, D the light's distance from the ray, span the angle the segment subtends."""
+def equiangular_setup1(o, d, t_start, t_end, light):
+    """(delta, D, span, t_start, t_end) of equiangular sampling toward `light` along the unit ray
+    o + t d, t in [t_start, t_end] (t_end may be inf): delta is the distance along the ray to the
+    point nearest the light, D the light's distance from the ray, span the angle the segment
+    subtends."""
     delta = (light[0] - o[0]) * d[0] + (light[1] - o[1]) * d[1] + (light[2] - o[2]) * d[2]
     cx = light[0] - (o[0] + d[0] * delta)
     cy = light[1] - (o[1] + d[1] * delta)
     cz = light[2] - (o[2] + d[2] * delta)
     D = max(np.sqrt(cx * cx + cy * cy + cz * cz), 1e-7)
+    a = t_start - delta
     if np.isfinite(t_end):
-        span = np.arctan2(t_end * D, D * D - delta * (t_end - delta))
+        span = np.arctan2((t_end - t_start) * D, D * D + a * (t_end - delta))
     else:
-        span = np.arctan2(D, -delta)
-    return delta, D, span
+        span = np.arctan2(D, a)
+    return delta, D, span, t_start, t_end
 
 
 @kernel
 def equiangular_sample1(setup, u):
-    """t = delta + D tan(theta_0 + u span) with tan(theta_0) = -delta / D."""
-    delta, D, span = setup
+    """t = delta + D tan(theta_a + u span) with tan(theta_a) = (t_start - delta) / D."""
+    delta, D, span, t_start, t_end = setup
+    a = t_start - delta
     b = np.tan(u * span)
-    return delta + D * (D * b - delta) / (D + delta * b)
+    return min(max(delta + D * (a + D * b) / (D - a * b), t_start), t_end)
 
 
 @kernel
 def equiangular_pdf1(setup, t):
-    delta, D, span = setup
+    delta, D, span, t_start, t_end = setup
+    if not t_start <= t <= t_end:
+        return 0.0
     return D / (max(span, 1e-12) * (D * D + (t - delta) ** 2))

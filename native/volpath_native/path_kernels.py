@@ -40,6 +40,7 @@ from .light_kernels import (TRIANGLE, lamp_crossing_unselected, light_has_positi
                             sample_light_selected, triangle_emission_unselected, triangle_sample_barycentrics)
 from .light_tree import (MODE_SURFACE, MODE_SURFACE_TRANSMIT, MODE_VOLUME, escaped_emission_mis_at, tree_pdf,
                          tree_select)
+from .light_segment import light_segment
 from .media import (channel_probabilities1, distance_pdf1, emission_integral1, equiangular_pdf1,
                     equiangular_sample1, equiangular_setup1, sample_distance1, sample_distance_truncated1,
                     transmittance1, transmittance3, truncated_distance_pdf1)
@@ -626,9 +627,10 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
         prob_eq = 1.0 if can_equi else 0.0
     else:
         prob_eq = 0.5 if can_equi else 0.0
-    if not (can_equi or can_distance):
+    t_lit0, t_lit1 = light_segment(T, row, o, d, t_end)  # where the light can reach
+    if not (can_equi or can_distance) or not t_lit0 <= t_lit1:
         return n_shadow
-    setup = equiangular_setup1(o, d, t_end, light_position(T, row))
+    setup = equiangular_setup1(o, d, t_lit0, t_lit1, light_position(T, row))
     if _u(K, p, iteration, D_MED_TECH) < prob_eq:
         t = equiangular_sample1(setup, u_t)
     else:
@@ -1013,9 +1015,10 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
         prob_eq = 1.0 if can_equi else 0.0
     else:
         prob_eq = (0.5 if finite else 1.0) if can_equi else 0.0
-    if not (can_equi or finite):
+    t_lit0, t_lit1 = light_segment(T, row, o, d, t_end)  # where the light can reach
+    if not (can_equi or finite) or not t_lit0 <= t_lit1:
         return n_shadow
-    setup = equiangular_setup1(o, d, t_end, light_position(T, row))
+    setup = equiangular_setup1(o, d, t_lit0, t_lit1, light_position(T, row))
     u_t = _u(K, p, iteration, D_MED_T)
     u_tech = _u(K, p, iteration, D_MED_TECH)
     G = GR[_first_grid(S, C, p)]

@@ -92,7 +92,7 @@ def test_truncated_free_flight_is_unbiased(sigma_t, t_end):
 @kernel
 def _equiangular_weights(o, d, t_end, light, sigma_t, u, t, out):
     """T(t) / |x(t) - light|^2 / pdf(t) for t from equiangular sampling toward the light."""
-    setup = equiangular_setup1(o, d, t_end, light)
+    setup = equiangular_setup1(o, d, 0.0, t_end, light)
     for i in range(u.shape[0]):
         t[i] = equiangular_sample1(setup, u[i])
         x0, x1, x2 = o[0] + d[0] * t[i] - light[0], o[1] + d[1] * t[i] - light[1], o[2] + d[2] * t[i] - light[2]
@@ -195,19 +195,25 @@ def test_shadow_rays_accumulate_every_segment_through_null_boundaries():
 
 @pytest.mark.parametrize("light", [(1.5, 0.4, 2.0), (3.0, 0.0, 4.0001), (-2.0, 1.0, -1.0), (0.7, 5.0, 0.2)])
 @pytest.mark.parametrize("t_end", [0.4, 6.0, np.inf])
-def test_equiangular_span_form_matches_two_angles(light, t_end):
+@pytest.mark.parametrize("t_start", [0.0, 0.3])
+def test_equiangular_span_form_matches_two_angles(light, t_end, t_start):
     """The one-atan2 span and sample equal Kulla & Fajardo's two-angle form
     delta + D tan(theta_a + u (theta_b - theta_a)) and its pdf (light beside, almost on, behind
     and far from the ray)."""
     o, d = (0.1, -0.2, 0.3), (0.6, 0.0, 0.8)
-    delta, D, span = equiangular_setup1(o, d, t_end, light)
-    theta_a = np.arctan2(-delta, D)
+    setup = equiangular_setup1(o, d, t_start, t_end, light)  # t_start > 0: a clipped segment
+    delta, D, span = setup[:3]
+    theta_a = np.arctan2(t_start - delta, D)
     theta_b = np.arctan2(t_end - delta, D) if np.isfinite(t_end) else 0.5 * np.pi
     np.testing.assert_allclose(span, theta_b - theta_a, rtol=1e-12)
     for u in np.linspace(0.0, 0.999, 37):
-        t = equiangular_sample1((delta, D, span), u)
+        t = equiangular_sample1(setup, u)
         expected = delta + D * np.tan(theta_a + u * (theta_b - theta_a))
         np.testing.assert_allclose(t, expected, rtol=1e-9, atol=1e-12 * max(1.0, abs(delta)))
+        np.testing.assert_allclose(equiangular_pdf1(setup, t), D / ((theta_b - theta_a) * (D * D + (t - delta) ** 2)),
+                                   rtol=1e-9)
+    # no density outside the (clipped) segment
+    assert equiangular_pdf1(setup, t_start - 1e-3) == 0.0 and equiangular_pdf1(setup, t_end + 1e-3) == 0.0
 
 
 
