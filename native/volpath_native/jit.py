@@ -133,13 +133,13 @@ if KernelCacheLocator not in caching.CacheImpl._locator_classes:
 
 def widened_scalar(t):
     """The one type a kernel parameter is compiled for when a caller passes scalar type t:
-    literals lose their value (a constant 0 or a closure kind is a run-time int64), narrower
-    ints become int64 and float32 becomes float64. Arrays, tuples and records are unchanged."""
+    literals lose their value (a constant 0 or a closure kind is a run-time int64) and narrower
+    signed ints become int64. float32 stays float32: the texture kernels compute in float32 on
+    purpose, to match Cycles' float arithmetic bit for bit (tests/shading). Arrays, tuples and
+    records are unchanged."""
     t = numba.types.unliteral(t)
     if isinstance(t, numba.types.Integer) and t.signed and t.bitwidth < 64:
         return numba.types.int64
-    if t == numba.types.float32:
-        return numba.types.float64
     return t
 
 
@@ -150,8 +150,8 @@ def _get_call_template(self, args, kws):
     """Dispatcher.get_call_template for kernels called from kernels: one compiled signature per
     parameter's scalar kind. numba compiles a callee for the argument types as it sees them
     during type inference, and those include transient ones -- `count = 0` before a loop is
-    first Literal[int](0), a constant argument is Literal[int](k), hit arrays give int32 or
-    float32 -- so a callee, and all it calls, compiled up to 16 times. Here it compiles once for
+    first Literal[int](0), a constant argument is Literal[int](k), hit arrays give int32 --
+    so a callee, and all it calls, compiled up to 16 times. Here it compiles once for
     the widened types and numba converts the caller's values to them (the template resolves the
     call against the compiled signatures). A callee that cannot type with widened arguments
     (one needing a literal) is compiled for the arguments as given, as numba does."""
