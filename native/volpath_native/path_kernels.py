@@ -46,7 +46,8 @@ from .media import (channel_probabilities1, distance_pdf1, emission_integral1, e
                     transmittance1, transmittance3, truncated_distance_pdf1)
 from .mis import mis_weight, power_heuristic
 from .phase import hg_eval1, hg_sample1
-from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, LENS_U_DIM, LENS_V_DIM, SHUTTER_TIME_DIM, path_key1, uniform1
+from .sample_pattern import path_key1, sample1
+from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, LENS_U_DIM, LENS_V_DIM, SHUTTER_TIME_DIM
 from .instance_motion import normal_map1
 from .motion_triangles import deform_step, deformed_corners1, is_deforming
 from .surface_programs import (frame_at_time, has_program_emission, program_emission, program_shading_normal,
@@ -102,7 +103,7 @@ SceneTables = namedtuple("SceneTables", [
 
 @stage_kernel
 def _u(K, p, iteration, offset):
-    return uniform1(K[p], CAMERA_DIMS + iteration * DIMS_PER_EVENT + offset)
+    return sample1(K[p], CAMERA_DIMS + iteration * DIMS_PER_EVENT + offset)
 
 
 @stage_kernel
@@ -238,12 +239,12 @@ def start_paths(S, cam, filter_inverse, seed_key, crop, full_width, pixel, sampl
         px = x0 + pixel[p] % crop_width
         py = y0 + pixel[p] // crop_width
         key = path_key1(seed_key, py * full_width + px, sample[p])
-        lens_u = uniform1(key, LENS_U_DIM) if cam.aperture_size > 0.0 else 0.5
-        lens_v = uniform1(key, LENS_V_DIM) if cam.aperture_size > 0.0 else 0.5
-        time = ray_time1(cam, py, uniform1(key, SHUTTER_TIME_DIM))
+        lens_u = sample1(key, LENS_U_DIM) if cam.aperture_size > 0.0 else 0.5
+        lens_v = sample1(key, LENS_V_DIM) if cam.aperture_size > 0.0 else 0.5
+        time = ray_time1(cam, py, sample1(key, SHUTTER_TIME_DIM))
         origin, direction, tmax, seen = camera_ray1(
-            cam, px + 0.5 + filter_offset1(filter_inverse, uniform1(key, 0)),
-            py + 0.5 + filter_offset1(filter_inverse, uniform1(key, 1)), lens_u, lens_v, time)
+            cam, px + 0.5 + filter_offset1(filter_inverse, sample1(key, 0)),
+            py + 0.5 + filter_offset1(filter_inverse, sample1(key, 1)), lens_u, lens_v, time)
         alive[p] = seen
         if not seen:
             unseen += 1

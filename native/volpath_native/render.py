@@ -22,7 +22,11 @@ from .shading.images import table_nbytes
 @dataclass
 class RenderResult:
     image: np.ndarray          # (H, W, 4) float32 scene-linear RGBA, row 0 = top, crop region
-    variance: np.ndarray       # (H, W, 3) float32 estimated variance of each pixel's mean
+    # (H, W, 3) float32 estimated variance of each pixel's mean: the samples' variance over their
+    # count, the variance of independent samples. A pixel's samples are stratified
+    # (sample_pattern), so the error of its mean is usually smaller; compare independent renders
+    # (other seeds) for the error itself.
+    variance: np.ndarray
     samples: int               # samples per pixel actually rendered
     seconds: float
     stats: dict = field(default_factory=dict)
@@ -72,7 +76,8 @@ class _Film:
         return self.sum / np.maximum(self.count, 1)[:, None]
 
     def variance_of_mean(self, mean):
-        """Unbiased sample variance of each pixel's samples divided by their count."""
+        """Unbiased sample variance of each pixel's samples divided by their count (what the
+        mean's variance would be were the samples independent: see RenderResult.variance)."""
         n = np.maximum(self.count, 1)[:, None]
         var = self.sum_sq / n
         var -= mean * mean

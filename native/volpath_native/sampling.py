@@ -1,8 +1,10 @@
 """Deterministic random numbers and sample warps.
 
-Every random number is a pure function of (seed, pixel, sample, dimension): a counter-based hash
-(splitmix64 finaliser, Steele et al. 2014), so an image does not depend on batch size, thread count
-or the order in which paths are processed.
+Every random number is a pure function of (seed, pixel, sample, dimension), so an image does not
+depend on batch size, thread count or the order in which paths are processed. The path sampler
+draws stratified numbers (sample_pattern.sample1, keys from sample_pattern.path_key1); uniform1 is
+the independent generator, a counter-based hash (splitmix64 finaliser, Steele et al. 2014), for
+draws whose number is unbounded (tracking in grid media) and for tables built at load time.
 """
 from __future__ import annotations
 
@@ -16,7 +18,9 @@ _MIX2 = np.uint64(0x94D049BB133111EB)
 _INV_2_53 = 1.0 / float(1 << 53)
 
 # Dimension layout: 2 camera dimensions, then DIMS_PER_EVENT per integrator iteration: offset o of
-# iteration i is dimension CAMERA_DIMS + i * DIMS_PER_EVENT + o (path_kernels._u).
+# iteration i is dimension CAMERA_DIMS + i * DIMS_PER_EVENT + o (path_kernels._u). Dimensions 2k
+# and 2k + 1 are one stratified pair (sample_pattern): both counts are even, so the pairs of
+# offsets (0, 1), (2, 3), ... of an iteration are pairs.
 CAMERA_DIMS = 2
 DIMS_PER_EVENT = 24
 # The lens sample (depth of field) and the shutter time (motion blur) of a camera ray have
@@ -40,21 +44,17 @@ def _mix64(x):
 
 
 def seed_key(seed: int) -> np.uint64:
-    """The uint64 key of a render seed (path_key1's first argument)."""
+    """The uint64 key of a render seed (sample_pattern.path_key1's first argument)."""
     return np.uint64(_mix64(np.uint64(seed & 0xFFFFFFFFFFFFFFFF)))  # numba returns a Python int
 
 
 @kernel
-def path_key1(seed_key, pixel, sample):
-    """The 64-bit key of one path from (seed key, full-frame pixel index, sample index)."""
-    return _mix64(_mix64(seed_key ^ np.uint64(pixel)) ^ (np.uint64(sample) * _GOLDEN))
-
-
-@kernel
 def uniform1(key, dimension):
-    """Uniform float64 in [0, 1) for one path key at one dimension. Every operand is uint64:
-    numba turns uint64 mixed with int64 into float64."""
-    return np.float64(_mix64(key ^ (np.uint64(dimension) * _MIX2)) >> np.uint64(11)) * _INV_2_53
+    """Uniform float64 in [0, 1) for one key at one dimension, independent of every other (key,
+    dimension). The key is hashed first: path keys of one pixel differ only in their low bits
+    (sample_pattern.path_key1). Every operand is uint64: numba turns uint64 mixed with int64 into
+    float64."""
+    return np.float64(_mix64(_mix64(key) ^ (np.uint64(dimension) * _MIX2)) >> np.uint64(11)) * _INV_2_53
 
 
 # ---------------------------------------------------------------------------------------------
