@@ -167,15 +167,35 @@ class PixelTest:
                 "p_value": float(self.p_values[index]), "t": float(self.t_statistic[index])}
 
 
-def pixel_t_test(a: RunStatistics, b: RunStatistics, alpha: float = 0.01) -> PixelTest:
-    """Welch's t-test of mean(a) == mean(b) at every pixel and channel, Sidak-corrected."""
+def _moderated_variance(stats: RunStatistics) -> tuple[np.ndarray, int]:
+    """Each pixel's variance of the mean pooled with its 8 neighbours' mean variance, with equal
+    weight, and the degrees of freedom the pooling carries: the moderated t of limma (Smyth 2004)
+    with the neighbourhood as the prior. Samples are stratified (Sobol'-Burley in both engines),
+    so with a few runs a pixel whose few contributing samples have discrete outcomes -- 0, 1 or 2
+    of 32 reach the floor through the filter's tail -- can give the same value in every run: an
+    estimated variance of ~0 its neighbours do not share, with which Welch's t grows without
+    bound."""
+    variance = stats.variance_of_mean
+    padded = np.pad(variance, ((1, 1), (1, 1), (0, 0)), mode="edge")
+    h, w = variance.shape[:2]
+    neighbours = (sum(padded[dy:dy + h, dx:dx + w] for dy in range(3) for dx in range(3)) - variance) / 8.0
+    return 0.5 * (variance + neighbours), 2 * stats.degrees_of_freedom
+
+
+def pixel_t_test(a: RunStatistics, b: RunStatistics, alpha: float = 0.01, pool_neighbours: bool = True) -> PixelTest:
+    """Welch's t-test of mean(a) == mean(b) at every pixel and channel, Sidak-corrected; with
+    pool_neighbours, on variances moderated by the neighbourhood's (_moderated_variance; block
+    means average many samples and are tested as estimated)."""
     if a.mean.shape != b.mean.shape:
         raise ValueError(f"image sizes differ: {a.mean.shape} vs {b.mean.shape}")
     difference = a.mean - b.mean
-    va, vb = a.variance_of_mean, b.variance_of_mean
+    if pool_neighbours:
+        (va, dof_a), (vb, dof_b) = _moderated_variance(a), _moderated_variance(b)
+    else:
+        va, dof_a, vb, dof_b = a.variance_of_mean, a.degrees_of_freedom, b.variance_of_mean, b.degrees_of_freedom
     variance = va + vb
     # Welch-Satterthwaite effective degrees of freedom (where variance is zero, any value works).
-    denominator = va ** 2 / a.degrees_of_freedom + vb ** 2 / b.degrees_of_freedom
+    denominator = va ** 2 / dof_a + vb ** 2 / dof_b
     with np.errstate(divide="ignore", invalid="ignore"):
         dof = np.where(denominator > 0, variance ** 2 / np.where(denominator > 0, denominator, 1.0),
                        MAX_DEGREES_OF_FREEDOM)
@@ -439,7 +459,8 @@ def compare_runs(a: RunStatistics, b: RunStatistics, alpha: float = 0.01) -> Com
     sizes = [size for size in BLOCK_SIZES
              if a.run_images is not None and b.run_images is not None and (h // size) * (w // size) >= 4]
     share = sidak_alpha(alpha, 2 + len(sizes))
-    blocks = {size: pixel_t_test(block_statistics(a, size), block_statistics(b, size), share) for size in sizes}
+    blocks = {size: pixel_t_test(block_statistics(a, size), block_statistics(b, size), share, pool_neighbours=False)
+              for size in sizes}
     return Comparison(pixel=pixel_t_test(a, b, share), means=mean_test(a, b, share),
                       relmse_a_vs_b=relmse(a.mean, b.mean),
                       relative_difference=signed_relative_difference(a.mean, b.mean), blocks=blocks)
