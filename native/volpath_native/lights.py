@@ -236,7 +236,7 @@ class LightSet:
         """light_tree.tree_select per point: (rows, probabilities)."""
         n = len(u)
         rows, pdf = np.empty(n, np.int64), np.empty(n)
-        tree_select_many(self.tables, _f64(u), _f64(points).reshape(n, 3), _f64(normals).reshape(n, 3),
+        tree_select_many(self.tables.tree, _f64(u), _f64(points).reshape(n, 3), _f64(normals).reshape(n, 3),
                          _f64(np.broadcast_to(t, (n,))), int(mode), rows, pdf)
         return rows, pdf
 
@@ -245,7 +245,7 @@ class LightSet:
         rows = _i64(rows)
         n = len(rows)
         pdf = np.empty(n)
-        tree_pdf_many(self.tables, rows, _f64(points).reshape(n, 3), _f64(normals).reshape(n, 3),
+        tree_pdf_many(self.tables.tree, rows, _f64(points).reshape(n, 3), _f64(normals).reshape(n, 3),
                       _f64(np.broadcast_to(t, (n,))), int(mode), pdf)
         return pdf
 
