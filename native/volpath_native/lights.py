@@ -7,7 +7,8 @@ hits them (for MIS). Conventions follow Cycles (scene/light.cpp, kernel/light/*.
 - point/spot, radius r, no soft falloff: a sphere with that radiance; cone-sampled (point.h).
 - spot: smoothstep((cos_angle - cos(size/2)) / ((1 - cos(size/2)) * blend)) (spot.h), power not
   renormalised into the cone.
-- area: one-sided, radiance power / (pi * area) (area.h: eval_fac = invarea / pi).
+- area: one-sided, radiance power / (pi * area) (area.h: eval_fac = invarea / pi); a rectangle
+  is sampled uniformly in the solid angle it subtends (spherical_rectangle.py), an ellipse by area.
 - sun: irradiance E on a surface facing it; angle > 0 gives radiance E / (pi sin^2(angle/2))
   over a uniformly sampled cone (light.cpp SunLight).
 - emissive triangles: two-sided by default (closure/emissive.h ignores the facing).
