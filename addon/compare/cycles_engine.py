@@ -71,15 +71,10 @@ class BounceLimits:
     volume_bounces: int = 0
     transparent_bounces: int = 8
     light_tree: bool = True  # not a bounce limit: the light selection, matched as well
-    # not a limit either: VolPath's Russian-roulette start k is Cycles' Min Light Bounces k - 1
-    # (Cycles' kernel starts at min_light_bounces + 1: scene/integrator.cpp); k = 0 has no Cycles
-    # equivalent and maps to 0 (Cycles then keeps one bounce more without roulette)
-    russian_roulette_min_bounces: int = 1
 
     @classmethod
     def from_settings(cls, settings) -> "BounceLimits":
-        values = {name: int(getattr(settings, name, cls.__dataclass_fields__[name].default))
-                  for name in cls.__dataclass_fields__ if name != "light_tree"}
+        values = {name: int(getattr(settings, name)) for name in cls.__dataclass_fields__ if name != "light_tree"}
         return cls(**values, light_tree=bool(getattr(settings, "light_tree", True)))
 
 
@@ -109,7 +104,7 @@ def matched_settings(scene, bounces: BounceLimits, resolution: Optional[tuple] =
         snapshot.set(cycles, "volume_biased", False)
         # VolPath does not blur glossy closures after rough bounces (Filter Glossy = 0; README).
         snapshot.set(cycles, "blur_glossy", 0.0)
-        snapshot.set(cycles, "min_light_bounces", max(bounces.russian_roulette_min_bounces - 1, 0))
+        snapshot.set(cycles, "min_light_bounces", 0)
         snapshot.set(cycles, "min_transparent_bounces", 0)
         snapshot.set(cycles, "max_bounces", bounces.max_bounces)
         snapshot.set(cycles, "diffuse_bounces", bounces.diffuse_bounces)

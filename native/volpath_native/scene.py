@@ -771,10 +771,7 @@ class RenderSettings:
     # per-point light selection (Cycles' light tree, its use_light_tree default); False: lights
     # chosen by power alone (Cycles' light distribution), the same image with more noise
     light_tree: bool = True
-    # Russian roulette after this many bounces: 1 is Cycles' default (its Min Light Bounces 0, which
-    # the kernel holds as min_bounce = 1: scene/integrator.cpp; path_state.h
-    # path_state_continuation_probability)
-    russian_roulette_min_bounces: int = 1
+    russian_roulette_min_bounces: int = 3
     batch_size: int = 1 << 16
     threads: int = 0  # 0: all cores
     # 'threads' (default; safe inside Blender) or 'processes' (forked workers, Linux/macOS; numpy's
