@@ -160,10 +160,11 @@ def build_light_tree(lights, enabled: bool = True) -> LightTreeTables:
     node_f[:, N_AXIS:N_AXIS + 3] = node_axis[:m]
     node_f[:, N_THETA_O], node_f[:, N_THETA_E], node_f[:, N_ENERGY] = node_to[:m], node_te[:m], node_energy[:m]
     _cone_cosines(node_f, N_THETA_O, N_THETA_E, N_COS_O)
-    centre = 0.5 * (node_min[:m] + node_max[:m])
-    node_f[:, N_CENTER:N_CENTER + 3] = centre
-    node_f[:, N_R2] = ((node_max[:m] - centre) ** 2).sum(axis=1)
-    node_f[:, N_HALF] = 0.5 * np.sqrt(node_f[:, N_R2])
+    with np.errstate(invalid="ignore"):  # an empty leaf's (inf, -inf) box: never evaluated (no emitters)
+        centre = 0.5 * (node_min[:m] + node_max[:m])
+        node_f[:, N_CENTER:N_CENTER + 3] = centre
+        node_f[:, N_R2] = ((node_max[:m] - centre) ** 2).sum(axis=1)
+        node_f[:, N_HALF] = 0.5 * np.sqrt(node_f[:, N_R2])
     node_i = np.stack([node_left[:m], node_right[:m], node_first[:m], node_count[:m], node_parent[:m],
                        node_distant.astype(np.int64)], axis=1)
     return LightTreeTables(
