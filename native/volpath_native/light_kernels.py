@@ -469,9 +469,11 @@ def lamp_crossing_unselected(T, k, ox, oy, oz, dx, dy, dz, tmin, tmax):
                 t = _INF
         if kind == AREA_ELLIPSE:
             pdf = t * t / max(abs(cos_l) * T.area[row], 1e-30)
-        else:  # the solid-angle pdf of _sample_rectangle from o
+        elif t > tmin and t <= tmax and t < _INF:  # the solid-angle pdf of _sample_rectangle from o
             pdf = rectangle_solid_angle_pdf(ox, oy, oz, cx, cy, cz, T.axis_u[row, 0], T.axis_u[row, 1],
                                             T.axis_u[row, 2], T.axis_v[row, 0], T.axis_v[row, 1], T.axis_v[row, 2])
+        else:
+            pdf = 0.0  # missed: not computed
     if not (t > tmin and t <= tmax) or t == _INF:
         return _INF, 0.0, 0.0, 0.0, 0.0
     return t, T.strength[row, 0] * mask, T.strength[row, 1] * mask, T.strength[row, 2] * mask, pdf
