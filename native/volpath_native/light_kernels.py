@@ -15,6 +15,7 @@ from .jit import inline_stage_kernel, stage_kernel
 from .mis import mis_weight
 from .motion_triangles import deformed_corners1, is_deforming
 from .sampling import concentric_disk1, local_to_world1, uniform_cone1, uniform_sphere1
+from .spherical_rectangle import rectangle_sample, rectangle_solid_angle_pdf
 
 POINT, SPHERE, DISK, AREA_RECT, AREA_ELLIPSE, SUN, TRIANGLE, WORLD = range(8)
 
@@ -195,17 +196,32 @@ def _sample_surface_point(T, row, px, py, pz, yx, yy, yz, one_sided, nx, ny, nz,
 
 @stage_kernel
 def _sample_area(T, row, px, py, pz, u1, u2, ellipse):
-    """Rectangle / ellipse area light, uniform by area, one-sided (Cycles kernel/light/area.h)."""
-    if ellipse:
-        x, y = concentric_disk1(u1, u2)
-        x, y = 0.5 * x, 0.5 * y
-    else:
-        x, y = u1 - 0.5, u2 - 0.5
+    """Area light, one-sided (Cycles kernel/light/area.h): a rectangle uniform in the solid angle
+    it subtends (area_light_rect_sample), an ellipse uniform by area."""
+    if not ellipse:
+        return _sample_rectangle(T, row, px, py, pz, u1, u2)
+    x, y = concentric_disk1(u1, u2)
+    x, y = 0.5 * x, 0.5 * y
     yx = T.position[row, 0] + T.axis_u[row, 0] * x + T.axis_v[row, 0] * y
     yy = T.position[row, 1] + T.axis_u[row, 1] * x + T.axis_v[row, 1] * y
     yz = T.position[row, 2] + T.axis_u[row, 2] * x + T.axis_v[row, 2] * y
     return _sample_surface_point(T, row, px, py, pz, yx, yy, yz, True, T.normal[row, 0], T.normal[row, 1],
                                  T.normal[row, 2], T.area[row])
+
+
+@stage_kernel
+def _sample_rectangle(T, row, px, py, pz, u1, u2):
+    """Rectangle light by solid angle (spherical_rectangle.py); nothing from behind it (area.h
+    area_light_sample)."""
+    cx, cy, cz = T.position[row, 0], T.position[row, 1], T.position[row, 2]
+    nx, ny, nz = T.normal[row, 0], T.normal[row, 1], T.normal[row, 2]
+    if (cx - px) * nx + (cy - py) * ny + (cz - pz) * nz >= 0.0:
+        return 0.0, 0.0, 1.0, _INF, 0.0, 0.0, 0.0, 0.0
+    yx, yy, yz, pdf = rectangle_sample(px, py, pz, cx, cy, cz, T.axis_u[row, 0], T.axis_u[row, 1], T.axis_u[row, 2],
+                                       T.axis_v[row, 0], T.axis_v[row, 1], T.axis_v[row, 2], u1, u2)
+    wx, wy, wz, dist = _unit(yx - px, yy - py, yz - pz)
+    s = 1.0 / pdf if pdf > 0.0 else 0.0
+    return wx, wy, wz, dist, T.strength[row, 0] * s, T.strength[row, 1] * s, T.strength[row, 2] * s, pdf
 
 
 @stage_kernel
@@ -451,7 +467,13 @@ def lamp_crossing_unselected(T, k, ox, oy, oz, dx, dy, dz, tmin, tmax):
                 inside = abs(x) <= 0.5 and abs(y) <= 0.5
             if not inside:
                 t = _INF
-        pdf = t * t / max(abs(cos_l) * T.area[row], 1e-30)
+        if kind == AREA_ELLIPSE:
+            pdf = t * t / max(abs(cos_l) * T.area[row], 1e-30)
+        elif t > tmin and t <= tmax and t < _INF:  # the solid-angle pdf of _sample_rectangle from o
+            pdf = rectangle_solid_angle_pdf(ox, oy, oz, cx, cy, cz, T.axis_u[row, 0], T.axis_u[row, 1],
+                                            T.axis_u[row, 2], T.axis_v[row, 0], T.axis_v[row, 1], T.axis_v[row, 2])
+        else:
+            pdf = 0.0  # missed: not computed
     if not (t > tmin and t <= tmax) or t == _INF:
         return _INF, 0.0, 0.0, 0.0, 0.0
     return t, T.strength[row, 0] * mask, T.strength[row, 1] * mask, T.strength[row, 2] * mask, pdf

@@ -27,30 +27,41 @@ import numpy as np
 
 from .jit import kernel, stage_kernel
 from .light_kernels import (AREA_ELLIPSE, AREA_RECT, DISK, POINT, SPHERE, SUN, TRIANGLE, WORLD,
-                            distant_emission_unselected, select_light)
+                            distant_emission_unselected)
 from .mis import mis_weight
 
 LightTreeTables = namedtuple("LightTreeTables", [
     "enabled",       # bool: per-point selection; False: static selection by power
-    "node_min",      # (M,3) bounding box
-    "node_max",      # (M,3)
-    "node_axis",     # (M,3) orientation cone axis
-    "node_theta_o",  # (M,) cone half-angle of the normals
-    "node_theta_e",  # (M,) emission spread around them
-    "node_energy",   # (M,)
-    "node_left",     # (M,) int64 children of inner nodes, -1 for leaves
-    "node_right",    # (M,)
-    "node_first",    # (M,) int64 first slot in leaf_rows of a leaf
-    "node_count",    # (M,) int64 emitters of a leaf, -1 for inner nodes (Cycles' num_emitters)
-    "node_parent",   # (M,) int64, -1 for the root
-    "node_distant",  # (M,) bool: the leaf of distant emitters
+    "count",         # int: light rows
+    "node_f",        # (M, N_NF) float64 per node: bounds, cone and its cosines (N_* columns)
+    "node_i",        # (M, N_NI) int64 per node: children, leaf range, parent, distant flag
     "leaf_rows",     # (E,) int64 light rows in leaf order
     "leaf_of_row",   # (n,) int64 leaf of each light row, -1: not in the tree (no energy)
-    "e_axis",        # (n,3) per light row: cone axis (spot / area / one-sided triangle normal, ...)
-    "e_theta_o",     # (n,)
-    "e_theta_e",     # (n,)
-    "e_energy",      # (n,)
+    "e_f",           # (n, E_NF) float64 per light row: what its importance needs (E_* columns)
+    "e_kind",        # (n,) int64 light kind (light_kernels)
+    "select_prob",   # (n,) the static selection by power (LightTables.select_prob)
+    "select_cdf",    # (n,)
 ])
+# The selection runs at every next event and every MIS weight: its tables are a few packed arrays,
+# so that each call between its kernels passes a handful of array descriptors (numba passes a
+# tuple of arrays field by field: the light tables' ~45 arrays cost more than the importance's
+# arithmetic), and the cosines of the cone angles are computed once here, not per evaluation.
+# node_f columns: bounds, cone axis and angles, energy, cos/sin of theta_o, cos(theta_o + theta_e),
+# cos(theta_e - theta_o), the box centre, half its diagonal and its squared half-diagonal.
+N_MIN, N_MAX, N_AXIS, N_THETA_O, N_THETA_E, N_ENERGY = 0, 3, 6, 9, 10, 11
+N_COS_O, N_SIN_O, N_COS_OE, N_COS_EO, N_CENTER, N_HALF, N_R2 = 12, 13, 14, 15, 16, 19, 20
+N_NF = 21
+# node_i columns: left / right child (-1 for leaves), first slot in leaf_rows, emitters of a leaf
+# (-1 for inner nodes, Cycles' num_emitters), parent (-1 for the root), the distant leaf flag.
+N_LEFT, N_RIGHT, N_FIRST, N_COUNT, N_PARENT, N_DISTANT = range(6)
+N_NI = 6
+# e_f columns: position (sun: its axis), cone axis, theta_o as the importance uses it (0 for
+# point-like lamps that are no spots, whose disk faces the point), theta_e, energy, the cosines as
+# for nodes and cos(theta_e), radius, spot smoothstep factor, area edge vectors, triangle corners.
+E_POS, E_AXIS, E_THETA_O, E_THETA_E, E_ENERGY = 0, 3, 6, 7, 8
+E_COS_O, E_SIN_O, E_COS_OE, E_COS_EO, E_COS_E, E_RADIUS, E_SPOT, E_AXIS_U, E_AXIS_V, E_CORNERS = \
+    9, 10, 11, 12, 13, 14, 15, 16, 19, 22
+E_NF = 31
 
 # Surface shading points without / with transmitting closures; volume segments.
 MODE_SURFACE, MODE_SURFACE_TRANSMIT, MODE_VOLUME = 0, 1, 2
@@ -144,15 +155,61 @@ def build_light_tree(lights, enabled: bool = True) -> LightTreeTables:
     for node in range(m):
         if node_count[node] > 0:
             leaf_of_row[leaf_rows[node_first[node]:node_first[node] + node_count[node]]] = node
-    c = np.ascontiguousarray
+    node_f = np.zeros((m, N_NF))
+    node_f[:, N_MIN:N_MIN + 3], node_f[:, N_MAX:N_MAX + 3] = node_min[:m], node_max[:m]
+    node_f[:, N_AXIS:N_AXIS + 3] = node_axis[:m]
+    node_f[:, N_THETA_O], node_f[:, N_THETA_E], node_f[:, N_ENERGY] = node_to[:m], node_te[:m], node_energy[:m]
+    _cone_cosines(node_f, N_THETA_O, N_THETA_E, N_COS_O)
+    with np.errstate(invalid="ignore"):  # an empty leaf's (inf, -inf) box: never evaluated (no emitters)
+        centre = 0.5 * (node_min[:m] + node_max[:m])
+        node_f[:, N_CENTER:N_CENTER + 3] = centre
+        node_f[:, N_R2] = ((node_max[:m] - centre) ** 2).sum(axis=1)
+        node_f[:, N_HALF] = 0.5 * np.sqrt(node_f[:, N_R2])
+    node_i = np.stack([node_left[:m], node_right[:m], node_first[:m], node_count[:m], node_parent[:m],
+                       node_distant.astype(np.int64)], axis=1)
     return LightTreeTables(
-        enabled=bool(enabled), node_min=c(node_min[:m]), node_max=c(node_max[:m]), node_axis=c(node_axis[:m]),
-        node_theta_o=c(node_to[:m]), node_theta_e=c(node_te[:m]), node_energy=c(node_energy[:m]),
-        node_left=c(node_left[:m]), node_right=c(node_right[:m]), node_first=c(node_first[:m]),
-        node_count=c(node_count[:m]), node_parent=c(node_parent[:m]), node_distant=node_distant,
-        leaf_rows=c(leaf_rows), leaf_of_row=leaf_of_row, e_axis=c(axis, dtype=np.float64),
-        e_theta_o=c(theta_o, dtype=np.float64), e_theta_e=c(theta_e, dtype=np.float64),
-        e_energy=c(energy, dtype=np.float64))
+        enabled=bool(enabled), count=int(n), node_f=np.ascontiguousarray(node_f),
+        node_i=np.ascontiguousarray(node_i, dtype=np.int64), leaf_rows=np.ascontiguousarray(leaf_rows),
+        leaf_of_row=leaf_of_row, e_f=_emitter_table(lights, axis, theta_o, theta_e, energy),
+        e_kind=np.ascontiguousarray(lights.kind, dtype=np.int64).reshape(n),
+        select_prob=np.ascontiguousarray(lights.select_prob, dtype=np.float64).reshape(n),
+        select_cdf=np.ascontiguousarray(lights.select_cdf, dtype=np.float64).reshape(n))
+
+
+def _cone_cosines(table, theta_o_col, theta_e_col, first):
+    """cos theta_o, sin theta_o, cos(theta_o + theta_e), cos(theta_e - theta_o) into the four
+    columns from `first` (what tree.h light_tree_importance takes the cosine of per evaluation)."""
+    to, te = table[:, theta_o_col], table[:, theta_e_col]
+    table[:, first], table[:, first + 1] = np.cos(to), np.sin(to)
+    table[:, first + 2], table[:, first + 3] = np.cos(to + te), np.cos(te - to)
+
+
+def _emitter_table(lights, axis, theta_o, theta_e, energy):
+    """e_f: per light row what emitter_importance reads (see the E_* columns)."""
+    n = lights.count
+    e = np.zeros((n, E_NF))
+    kind = np.asarray(lights.kind).reshape(n)
+    position = np.asarray(lights.position, dtype=np.float64).reshape(n, 3)
+    e[:, E_POS:E_POS + 3] = position
+    e[kind == SUN, E_POS:E_POS + 3] = axis[kind == SUN]
+    e[kind == WORLD, E_POS:E_POS + 3] = (0.0, 0.0, 1.0)
+    e[:, E_AXIS:E_AXIS + 3] = axis
+    spot_smooth = np.asarray(lights.spot_smooth, dtype=np.float64).reshape(n)
+    point_like = np.isin(kind, (POINT, SPHERE, DISK)) & ~(spot_smooth > 0.0)
+    e[:, E_THETA_O] = np.where(point_like, 0.0, theta_o)
+    e[:, E_THETA_E], e[:, E_ENERGY] = theta_e, energy
+    _cone_cosines(e, E_THETA_O, E_THETA_E, E_COS_O)
+    e[:, E_COS_E] = np.cos(theta_e)
+    e[:, E_RADIUS] = np.asarray(lights.radius, dtype=np.float64).reshape(n)
+    e[:, E_SPOT] = spot_smooth
+    e[:, E_AXIS_U:E_AXIS_U + 3] = np.asarray(lights.axis_u, dtype=np.float64).reshape(n, 3)
+    e[:, E_AXIS_V:E_AXIS_V + 3] = np.asarray(lights.axis_v, dtype=np.float64).reshape(n, 3)
+    triangle = np.asarray(lights.triangle).reshape(n)
+    rows = np.nonzero(kind == TRIANGLE)[0]
+    if len(rows):
+        corners = np.asarray(lights.corners, dtype=np.float64).reshape(-1, 3, 3)
+        e[rows, E_CORNERS:E_CORNERS + 9] = corners[triangle[rows]].reshape(len(rows), 9)
+    return np.ascontiguousarray(e)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -404,10 +461,11 @@ def _normalize_len(x, y, z):
 
 @stage_kernel
 def _importance(volume, has_transmission, nx, ny, nz, cx, cy, cz, cos_theta_u, ax, ay, az, theta_o, theta_e,
-                max_distance, min_distance, energy, theta_d):
+                cos_theta_o, sin_theta_o, cos_theta_oe, cos_theta_eo, max_distance, min_distance, energy, theta_d):
     """(max, min) importance of a cluster or emitter seen along the unit direction c (point to
     centroid) within cos_theta_u (tree.h light_tree_importance; N the normal, or the segment's
-    direction in volumes, where the incidence term is omitted)."""
+    direction in volumes, where the incidence term is omitted). cos_theta_oe, cos_theta_eo:
+    cos(theta_o + theta_e), cos(theta_e - theta_o), precomputed with cos / sin theta_o."""
     sin_theta_u = _sin_from_cos(cos_theta_u)
     cos_min_incidence = 1.0
     cos_max_incidence = 1.0
@@ -426,10 +484,9 @@ def _importance(volume, has_transmission, nx, ny, nz, cx, cy, cz, cos_theta_u, a
         cos_theta = -(ax * cx + ay * cy + az * cz)
         sin_theta = _sin_from_cos(cos_theta)
     cos_theta_minus_theta_u = cos_theta * cos_theta_u + sin_theta * sin_theta_u
-    cos_theta_o, sin_theta_o = np.cos(theta_o), np.sin(theta_o)
     if cos_theta >= cos_theta_u or cos_theta_minus_theta_u >= cos_theta_o:
         cos_min_outgoing = 1.0
-    elif theta_o + theta_e > _PI or cos_theta_minus_theta_u > np.cos(theta_o + theta_e):
+    elif theta_o + theta_e > _PI or cos_theta_minus_theta_u > cos_theta_oe:
         s = _sin_from_cos(cos_theta_minus_theta_u)
         cos_min_outgoing = cos_theta_minus_theta_u * cos_theta_o + s * sin_theta_o
     else:
@@ -438,8 +495,7 @@ def _importance(volume, has_transmission, nx, ny, nz, cx, cy, cz, cos_theta_u, a
         return abs(cos_min_incidence * energy * cos_min_outgoing * theta_d / min_distance), 0.0
     max_importance = abs(cos_min_incidence * energy * cos_min_outgoing / (min_distance * min_distance))
     cos_theta_plus_theta_u = cos_theta * cos_theta_u - sin_theta * sin_theta_u
-    if theta_e - theta_o < 0.0 or cos_theta < 0.0 or cos_theta_u < 0.0 or \
-            cos_theta_plus_theta_u < np.cos(theta_e - theta_o):
+    if theta_e - theta_o < 0.0 or cos_theta < 0.0 or cos_theta_u < 0.0 or cos_theta_plus_theta_u < cos_theta_eo:
         return max_importance, 0.0
     s = _sin_from_cos(cos_theta_plus_theta_u)
     cos_max_outgoing = cos_theta_plus_theta_u * cos_theta_o - s * sin_theta_o
@@ -487,10 +543,10 @@ def _segment_theta_d(cx, cy, cz, px, py, pz, dx, dy, dz, t):
 
 
 @stage_kernel
-def _subtended_cos(mnx, mny, mnz, mxx, mxy, mxz, cx, cy, cz, px, py, pz):
-    """Cosine of the half-angle of the bbox's bounding sphere seen from p (-1 inside it)."""
+def _subtended_cos(r2, cx, cy, cz, px, py, pz):
+    """Cosine of the half-angle of the bounding sphere (centre c, squared radius r2) seen from p
+    (-1 inside it)."""
     d2 = (px - cx) ** 2 + (py - cy) ** 2 + (pz - cz) ** 2
-    r2 = (mxx - cx) ** 2 + (mxy - cy) ** 2 + (mxz - cz) ** 2
     if d2 <= r2:
         return -1.0
     return np.sqrt(max(1.0 - r2 / d2, 0.0))
@@ -502,36 +558,34 @@ def node_importance(LT, node, px, py, pz, nx, ny, nz, t, mode):
     (tree.h light_tree_node_importance)."""
     volume = mode == MODE_VOLUME
     has_transmission = mode != MODE_SURFACE
-    ax, ay, az = LT.node_axis[node, 0], LT.node_axis[node, 1], LT.node_axis[node, 2]
-    theta_o, theta_e = LT.node_theta_o[node], LT.node_theta_e[node]
-    if LT.node_distant[node]:
+    f = LT.node_f[node]
+    ax, ay, az = f[N_AXIS], f[N_AXIS + 1], f[N_AXIS + 2]
+    if LT.node_i[node, N_DISTANT]:
         cx, cy, cz = -ax, -ay, -az
-        cos_theta_u = np.cos(theta_o + theta_e)
+        cos_theta_u = f[N_COS_OE]
         distance = 1.0
         theta_d = 1.0 if t == np.inf else t
     else:
-        mn, mx = LT.node_min[node], LT.node_max[node]
-        ccx, ccy, ccz = 0.5 * (mn[0] + mx[0]), 0.5 * (mn[1] + mx[1]), 0.5 * (mn[2] + mx[2])
+        ccx, ccy, ccz = f[N_CENTER], f[N_CENTER + 1], f[N_CENTER + 2]
         if volume:
             closest_t, distance, theta_d = _segment_theta_d(ccx, ccy, ccz, px, py, pz, nx, ny, nz, t)
             tc = min(max(closest_t, 0.0), t)
             vx, vy, vz = _compute_v(ccx, ccy, ccz, px, py, pz, nx, ny, nz, ax, ay, az, t)
             cx, cy, cz = -vx, -vy, -vz
-            cos_theta_u = _subtended_cos(mn[0], mn[1], mn[2], mx[0], mx[1], mx[2], ccx, ccy, ccz,
-                                         px + nx * tc, py + ny * tc, pz + nz * tc)
+            cos_theta_u = _subtended_cos(f[N_R2], ccx, ccy, ccz, px + nx * tc, py + ny * tc, pz + nz * tc)
         else:
             visible = has_transmission or (nx * (ccx - px) + ny * (ccy - py) + nz * (ccz - pz)
-                                           + abs(nx) * abs(mx[0] - ccx) + abs(ny) * abs(mx[1] - ccy)
-                                           + abs(nz) * abs(mx[2] - ccz) > 0.0)
+                                           + abs(nx) * abs(f[N_MAX] - ccx) + abs(ny) * abs(f[N_MAX + 1] - ccy)
+                                           + abs(nz) * abs(f[N_MAX + 2] - ccz) > 0.0)
             if not visible:
                 return 0.0, 0.0
             cx, cy, cz, distance = _normalize_len(ccx - px, ccy - py, ccz - pz)
-            cos_theta_u = _subtended_cos(mn[0], mn[1], mn[2], mx[0], mx[1], mx[2], ccx, ccy, ccz, px, py, pz)
+            cos_theta_u = _subtended_cos(f[N_R2], ccx, ccy, ccz, px, py, pz)
             theta_d = 1.0
-        half = 0.5 * np.sqrt((ccx - mx[0]) ** 2 + (ccy - mx[1]) ** 2 + (ccz - mx[2]) ** 2)
-        distance = max(half, distance)
-    return _importance(volume, has_transmission, nx, ny, nz, cx, cy, cz, cos_theta_u, ax, ay, az, theta_o, theta_e,
-                       distance, distance, LT.node_energy[node], theta_d)
+        distance = max(f[N_HALF], distance)
+    return _importance(volume, has_transmission, nx, ny, nz, cx, cy, cz, cos_theta_u, ax, ay, az, f[N_THETA_O],
+                       f[N_THETA_E], f[N_COS_O], f[N_SIN_O], f[N_COS_OE], f[N_COS_EO], distance, distance,
+                       f[N_ENERGY], theta_d)
 
 
 @stage_kernel
@@ -541,23 +595,20 @@ def _smoothstep(x):
 
 
 @stage_kernel
-def emitter_importance(T, row, px, py, pz, nx, ny, nz, t, mode):
+def emitter_importance(LT, row, px, py, pz, nx, ny, nz, t, mode):
     """(max, min) importance of one light row (tree.h light_tree_emitter_importance with the
     per-type *_light_tree_parameters of point.h, spot.h, area.h, triangle.h, sun.h, background.h)."""
-    LT = T.tree
     volume = mode == MODE_VOLUME
     has_transmission = mode != MODE_SURFACE
-    kind = T.kind[row]
-    theta_o, theta_e = LT.e_theta_o[row], LT.e_theta_e[row]
-    ax, ay, az = LT.e_axis[row, 0], LT.e_axis[row, 1], LT.e_axis[row, 2]
-    energy = LT.e_energy[row]
-    if kind == SUN or kind == WORLD:
-        gx, gy, gz = (ax, ay, az) if kind == SUN else (0.0, 0.0, 1.0)
-    else:
-        gx, gy, gz = T.position[row, 0], T.position[row, 1], T.position[row, 2]
-    is_spot = T.spot_smooth[row] > 0.0
+    kind = LT.e_kind[row]
+    e = LT.e_f[row]
+    theta_o = e[E_THETA_O]
+    ax, ay, az = e[E_AXIS], e[E_AXIS + 1], e[E_AXIS + 2]
+    energy = e[E_ENERGY]
+    gx, gy, gz = e[E_POS], e[E_POS + 1], e[E_POS + 2]  # the sun's axis, (0, 0, 1) for the world
+    is_spot = e[E_SPOT] > 0.0
     if (kind == POINT or kind == SPHERE or kind == DISK) and not is_spot:
-        # a point light's disk faces the shading point
+        # a point light's disk faces the shading point (theta_o is 0 in e_f)
         ax, ay, az, _ = _normalize_len(px - gx, py - gy, pz - gz)
     theta_d = 1.0
     qx, qy, qz = px, py, pz  # P_c: the closest point of the segment in volumes
@@ -574,9 +625,9 @@ def emitter_importance(T, row, px, py, pz, nx, ny, nz, t, mode):
         max_d = min_d
         cos_theta_u = 1e30
         above = False
-        corners = T.corners[T.triangle[row]]
         for i in range(3):
-            kx, ky, kz, dk = _normalize_len(corners[i, 0] - qx, corners[i, 1] - qy, corners[i, 2] - qz)
+            k = E_CORNERS + 3 * i
+            kx, ky, kz, dk = _normalize_len(e[k] - qx, e[k + 1] - qy, e[k + 2] - qz)
             cos_theta_u = min(cos_theta_u, cx * kx + cy * ky + cz * kz)
             above = above or (kx * nx + ky * ny + kz * nz > 0.0)
             if not volume:
@@ -587,25 +638,24 @@ def emitter_importance(T, row, px, py, pz, nx, ny, nz, t, mode):
         cx, cy, cz, min_d = _normalize_len(gx - qx, gy - qy, gz - qz)
         max_d = min_d
         cos_theta_u = 1e30
+        ux, uy, uz = e[E_AXIS_U], e[E_AXIS_U + 1], e[E_AXIS_U + 2]
+        vx, vy, vz = e[E_AXIS_V], e[E_AXIS_V + 1], e[E_AXIS_V + 2]
         for i in range(4):
             su = (i & 1) - 0.5
             sv = 0.5 * ((i & 2) - 1)
-            kx = T.axis_u[row, 0] * su + T.axis_v[row, 0] * sv + gx - qx
-            ky = T.axis_u[row, 1] * su + T.axis_v[row, 1] * sv + gy - qy
-            kz = T.axis_u[row, 2] * su + T.axis_v[row, 2] * sv + gz - qz
-            kx, ky, kz, dk = _normalize_len(kx, ky, kz)
+            kx, ky, kz, dk = _normalize_len(ux * su + vx * sv + gx - qx, uy * su + vy * sv + gy - qy,
+                                            uz * su + vz * sv + gz - qz)
             cos_theta_u = min(cos_theta_u, cx * kx + cy * ky + cz * kz)
             if not volume:
                 max_d = max(max_d, dk)
         front = (ax * cx + ay * cy + az * cz) < 0.0
-        above = (nx * (gx - qx) + ny * (gy - qy) + nz * (gz - qz)
-                 + 0.5 * abs(nx * T.axis_u[row, 0] + ny * T.axis_u[row, 1] + nz * T.axis_u[row, 2])
-                 + 0.5 * abs(nx * T.axis_v[row, 0] + ny * T.axis_v[row, 1] + nz * T.axis_v[row, 2])) > 0.0
+        above = (nx * (gx - qx) + ny * (gy - qy) + nz * (gz - qz) + 0.5 * abs(nx * ux + ny * uy + nz * uz)
+                 + 0.5 * abs(nx * vx + ny * vy + nz * vz)) > 0.0
         visible = front and above
     elif kind == SUN:
         if volume:
             theta_d = 1.0 if t == np.inf else t
-        cos_theta_u = np.cos(theta_e)
+        cos_theta_u = e[E_COS_E]
         max_d, min_d = 1.0 / cos_theta_u, 1.0
         cx, cy, cz = -gx, -gy, -gz
     elif kind == WORLD:
@@ -616,7 +666,7 @@ def emitter_importance(T, row, px, py, pz, nx, ny, nz, t, mode):
     else:  # point, sphere, soft disk; spots among them
         cx, cy, cz, min_d = _normalize_len(gx - qx, gy - qy, gz - qz)
         max_d = min_d
-        r = T.radius[row]
+        r = e[E_RADIUS]
         if kind == SPHERE:
             if min_d > r:
                 cos_theta_u = np.sqrt(max(1.0 - (r / min_d) ** 2, 0.0))
@@ -635,11 +685,12 @@ def emitter_importance(T, row, px, py, pz, nx, ny, nz, t, mode):
             cos_theta_u = 1.0
         if is_spot and not volume:
             # spot.h spot_light_tree_parameters: the blend's smoothstep at the smallest angle
-            ang = np.arccos(min(max(-(ax * cx + ay * cy + az * cz), -1.0), 1.0)) - \
-                np.arccos(min(max(cos_theta_u, -1.0), 1.0))
-            energy *= _smoothstep((np.cos(max(0.0, ang)) - np.cos(theta_e)) * T.spot_smooth[row])
-        if not is_spot:
-            theta_o = 0.0
+            # between the axis and the lamp's disk, cos(max(0, acos(a) - acos(b))) by the angle
+            # difference identity (a: cosine to the axis, b: cos_theta_u)
+            ca = min(max(-(ax * cx + ay * cy + az * cz), -1.0), 1.0)
+            cb = min(max(cos_theta_u, -1.0), 1.0)
+            cos_smallest = 1.0 if ca >= cb else ca * cb + _sin_from_cos(ca) * _sin_from_cos(cb)
+            energy *= _smoothstep((cos_smallest - e[E_COS_E]) * e[E_SPOT])
     if not (visible or has_transmission):
         return 0.0, 0.0
     if volume:
@@ -648,28 +699,28 @@ def emitter_importance(T, row, px, py, pz, nx, ny, nz, t, mode):
         else:
             vx, vy, vz = _compute_v(gx, gy, gz, px, py, pz, nx, ny, nz, ax, ay, az, t)
             cx, cy, cz = -vx, -vy, -vz
-    return _importance(volume, has_transmission, nx, ny, nz, cx, cy, cz, cos_theta_u, ax, ay, az, theta_o, theta_e,
-                       max_d, min_d, energy, theta_d)
+    return _importance(volume, has_transmission, nx, ny, nz, cx, cy, cz, cos_theta_u, ax, ay, az, theta_o,
+                       e[E_THETA_E], e[E_COS_O], e[E_SIN_O], e[E_COS_OE], e[E_COS_EO], max_d, min_d, energy, theta_d)
 
 
 @stage_kernel
-def _child_importance(T, node, px, py, pz, nx, ny, nz, t, mode):
+def _child_importance(LT, node, px, py, pz, nx, ny, nz, t, mode):
     """tree.h light_tree_child_importance: a leaf of one emitter is weighed as that emitter."""
-    LT = T.tree
-    c = LT.node_count[node]
+    c = LT.node_i[node, N_COUNT]
     if c == 1:
-        return emitter_importance(T, LT.leaf_rows[LT.node_first[node]], px, py, pz, nx, ny, nz, t, mode)
+        return emitter_importance(LT, LT.leaf_rows[LT.node_i[node, N_FIRST]], px, py, pz, nx, ny, nz, t, mode)
     if c == 0:
         return 0.0, 0.0
     return node_importance(LT, node, px, py, pz, nx, ny, nz, t, mode)
 
 
 @stage_kernel
-def _left_probability(T, node, px, py, pz, nx, ny, nz, t, mode):
-    """Probability of the left child (tree.h get_left_probability); -1 when both are worthless."""
-    LT = T.tree
-    max_l, min_l = _child_importance(T, LT.node_left[node], px, py, pz, nx, ny, nz, t, mode)
-    max_r, min_r = _child_importance(T, LT.node_right[node], px, py, pz, nx, ny, nz, t, mode)
+def _left_probability(LT, node, px, py, pz, nx, ny, nz, t, mode):
+    """Probability of the left child (tree.h get_left_probability); -1 when both are worthless.
+    A child it gives probability > 0 has importance > 0; a child of zero importance gets exactly
+    0 (and its sibling exactly 1)."""
+    max_l, min_l = _child_importance(LT, LT.node_i[node, N_LEFT], px, py, pz, nx, ny, nz, t, mode)
+    max_r, min_r = _child_importance(LT, LT.node_i[node, N_RIGHT], px, py, pz, nx, ny, nz, t, mode)
     total_max = max_l + max_r
     if total_max == 0.0:
         return -1.0
@@ -683,12 +734,12 @@ def _left_probability(T, node, px, py, pz, nx, ny, nz, t, mode):
 
 
 @stage_kernel
-def _leaf_totals(T, node, px, py, pz, nx, ny, nz, t, mode):
-    LT = T.tree
+def _leaf_totals(LT, node, px, py, pz, nx, ny, nz, t, mode):
     total_max = total_min = 0.0
     n_important = 0
-    for i in range(LT.node_count[node]):
-        mx, mn = emitter_importance(T, LT.leaf_rows[LT.node_first[node] + i], px, py, pz, nx, ny, nz, t, mode)
+    first = LT.node_i[node, N_FIRST]
+    for i in range(LT.node_i[node, N_COUNT]):
+        mx, mn = emitter_importance(LT, LT.leaf_rows[first + i], px, py, pz, nx, ny, nz, t, mode)
         total_max += mx
         total_min += mn
         if mx > 0.0:
@@ -706,43 +757,60 @@ def _leaf_probability(mx, mn, total_max, total_min, n_important):
     return 0.5 * (mx / total_max + (mn / total_min if total_min > 0.0 else 1.0 / n_important))
 
 
+@stage_kernel
+def _select_static(LT, u):
+    """Row with select_cdf[row-1] <= u < select_cdf[row] (light_kernels.select_light)."""
+    cdf = LT.select_cdf
+    lo, hi = 0, LT.count
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if cdf[mid] <= u:
+            lo = mid + 1
+        else:
+            hi = mid
+    return np.int64(min(lo, LT.count - 1))
+
+
 # ---------------------------------------------------------------------------------------------
 # Selection and its pdf
 # ---------------------------------------------------------------------------------------------
 @stage_kernel
-def tree_select(T, u, px, py, pz, nx, ny, nz, t, mode):
+def tree_select(LT, u, px, py, pz, nx, ny, nz, t, mode):
     """A light row for the shading point (p, n; mode MODE_*) or, in volumes, the segment p + s d,
     s in [0, t] (n = d): (row, probability); (-1, 0) when no light can reach it. Static selection
-    by power when the tree is off."""
-    LT = T.tree
-    if T.count == 0:
+    by power when the tree is off. LT: LightTables.tree."""
+    if LT.count == 0:
         return np.int64(-1), 0.0
     if not LT.enabled:
-        row = select_light(T, u)
-        return row, T.select_prob[row]
+        row = _select_static(LT, u)
+        return row, LT.select_prob[row]
     node = 0
     pdf = 1.0
-    while LT.node_count[node] < 0:
-        pl = _left_probability(T, node, px, py, pz, nx, ny, nz, t, mode)
+    while LT.node_i[node, N_COUNT] < 0:
+        pl = _left_probability(LT, node, px, py, pz, nx, ny, nz, t, mode)
         if pl < 0.0:
             return np.int64(-1), 0.0
         if u < pl:
             u = u / pl
-            node = LT.node_left[node]
+            node = LT.node_i[node, N_LEFT]
             pdf *= pl
         else:
             u = min((u - pl) / (1.0 - pl), 1.0) if pl < 1.0 else 0.0
-            node = LT.node_right[node]
+            node = LT.node_i[node, N_RIGHT]
             pdf *= 1.0 - pl
-    total_max, total_min, n_important = _leaf_totals(T, node, px, py, pz, nx, ny, nz, t, mode)
+    first = LT.node_i[node, N_FIRST]
+    if LT.node_i[node, N_COUNT] == 1:
+        # reached with probability > 0, hence importance > 0 (_left_probability): picked surely
+        return LT.leaf_rows[first], pdf
+    total_max, total_min, n_important = _leaf_totals(LT, node, px, py, pz, nx, ny, nz, t, mode)
     if n_important == 0:
         return np.int64(-1), 0.0
     acc = 0.0
     chosen = np.int64(-1)
     chosen_p = 0.0
-    for i in range(LT.node_count[node]):
-        row = LT.leaf_rows[LT.node_first[node] + i]
-        mx, mn = emitter_importance(T, row, px, py, pz, nx, ny, nz, t, mode)
+    for i in range(LT.node_i[node, N_COUNT]):
+        row = LT.leaf_rows[first + i]
+        mx, mn = emitter_importance(LT, row, px, py, pz, nx, ny, nz, t, mode)
         p = _leaf_probability(mx, mn, total_max, total_min, n_important)
         if p > 0.0:
             chosen, chosen_p = row, p
@@ -753,42 +821,44 @@ def tree_select(T, u, px, py, pz, nx, ny, nz, t, mode):
 
 
 @stage_kernel
-def tree_pdf(T, row, px, py, pz, nx, ny, nz, t, mode):
+def tree_pdf(LT, row, px, py, pz, nx, ny, nz, t, mode):
     """Probability that tree_select picks `row` from the same shading point or segment (the light
-    selection part of every MIS weight; tree.h light_tree_pdf)."""
-    LT = T.tree
+    selection part of every MIS weight; tree.h light_tree_pdf). LT: LightTables.tree."""
     if row < 0:
         return 0.0
     if not LT.enabled:
-        return T.select_prob[row]
+        return LT.select_prob[row]
     leaf = LT.leaf_of_row[row]
     if leaf < 0:
         return 0.0
-    total_max, total_min, n_important = _leaf_totals(T, leaf, px, py, pz, nx, ny, nz, t, mode)
-    mx, mn = emitter_importance(T, row, px, py, pz, nx, ny, nz, t, mode)
-    pdf = _leaf_probability(mx, mn, total_max, total_min, n_important)
+    if LT.node_i[leaf, N_COUNT] == 1:
+        pdf = 1.0  # the parent gives a leaf of one emitter without importance probability 0
+    else:
+        total_max, total_min, n_important = _leaf_totals(LT, leaf, px, py, pz, nx, ny, nz, t, mode)
+        mx, mn = emitter_importance(LT, row, px, py, pz, nx, ny, nz, t, mode)
+        pdf = _leaf_probability(mx, mn, total_max, total_min, n_important)
     node = leaf
-    while pdf > 0.0 and LT.node_parent[node] >= 0:
-        parent = LT.node_parent[node]
-        pl = _left_probability(T, parent, px, py, pz, nx, ny, nz, t, mode)
+    while pdf > 0.0 and LT.node_i[node, N_PARENT] >= 0:
+        parent = LT.node_i[node, N_PARENT]
+        pl = _left_probability(LT, parent, px, py, pz, nx, ny, nz, t, mode)
         if pl < 0.0:
             return 0.0
-        pdf *= pl if LT.node_left[parent] == node else 1.0 - pl
+        pdf *= pl if LT.node_i[parent, N_LEFT] == node else 1.0 - pl
         node = parent
     return pdf
 
 
 @stage_kernel
-def tree_select_many(T, u, p, n, t, mode, rows, pdf):
+def tree_select_many(LT, u, p, n, t, mode, rows, pdf):
     """tree_select for arrays (tests, LightSet)."""
     for i in range(u.shape[0]):
-        rows[i], pdf[i] = tree_select(T, u[i], p[i, 0], p[i, 1], p[i, 2], n[i, 0], n[i, 1], n[i, 2], t[i], mode)
+        rows[i], pdf[i] = tree_select(LT, u[i], p[i, 0], p[i, 1], p[i, 2], n[i, 0], n[i, 1], n[i, 2], t[i], mode)
 
 
 @stage_kernel
-def tree_pdf_many(T, rows, p, n, t, mode, pdf):
+def tree_pdf_many(LT, rows, p, n, t, mode, pdf):
     for i in range(rows.shape[0]):
-        pdf[i] = tree_pdf(T, rows[i], p[i, 0], p[i, 1], p[i, 2], n[i, 0], n[i, 1], n[i, 2], t[i], mode)
+        pdf[i] = tree_pdf(LT, rows[i], p[i, 0], p[i, 1], p[i, 2], n[i, 0], n[i, 1], n[i, 2], t[i], mode)
 
 
 @stage_kernel
@@ -807,6 +877,6 @@ def escaped_emission_mis_at(T, dx, dy, dz, prev_pdf, camera_ray, px, py, pz, nx,
             continue  # outside the sun's cone
         w = 1.0
         if prev_pdf > 0.0:
-            w = mis_weight(prev_pdf, pdf * tree_pdf(T, row, px, py, pz, nx, ny, nz, t, mode))
+            w = mis_weight(prev_pdf, pdf * tree_pdf(T.tree, row, px, py, pz, nx, ny, nz, t, mode))
         r, g, b = r + er * w, g + eg * w, b + eb * w
     return r, g, b

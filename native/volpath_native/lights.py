@@ -7,7 +7,8 @@ hits them (for MIS). Conventions follow Cycles (scene/light.cpp, kernel/light/*.
 - point/spot, radius r, no soft falloff: a sphere with that radiance; cone-sampled (point.h).
 - spot: smoothstep((cos_angle - cos(size/2)) / ((1 - cos(size/2)) * blend)) (spot.h), power not
   renormalised into the cone.
-- area: one-sided, radiance power / (pi * area) (area.h: eval_fac = invarea / pi).
+- area: one-sided, radiance power / (pi * area) (area.h: eval_fac = invarea / pi); a rectangle
+  is sampled uniformly in the solid angle it subtends (spherical_rectangle.py), an ellipse by area.
 - sun: irradiance E on a surface facing it; angle > 0 gives radiance E / (pi sin^2(angle/2))
   over a uniformly sampled cone (light.cpp SunLight).
 - emissive triangles: two-sided by default (closure/emissive.h ignores the facing).
@@ -236,7 +237,7 @@ class LightSet:
         """light_tree.tree_select per point: (rows, probabilities)."""
         n = len(u)
         rows, pdf = np.empty(n, np.int64), np.empty(n)
-        tree_select_many(self.tables, _f64(u), _f64(points).reshape(n, 3), _f64(normals).reshape(n, 3),
+        tree_select_many(self.tables.tree, _f64(u), _f64(points).reshape(n, 3), _f64(normals).reshape(n, 3),
                          _f64(np.broadcast_to(t, (n,))), int(mode), rows, pdf)
         return rows, pdf
 
@@ -245,7 +246,7 @@ class LightSet:
         rows = _i64(rows)
         n = len(rows)
         pdf = np.empty(n)
-        tree_pdf_many(self.tables, rows, _f64(points).reshape(n, 3), _f64(normals).reshape(n, 3),
+        tree_pdf_many(self.tables.tree, rows, _f64(points).reshape(n, 3), _f64(normals).reshape(n, 3),
                       _f64(np.broadcast_to(t, (n,))), int(mode), pdf)
         return pdf
 

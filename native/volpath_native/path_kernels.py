@@ -588,7 +588,7 @@ def _mis_from_last_vertex(T, F, I, p, row, pdf):
     prev_pdf = F[p, PREV_PDF]
     if not prev_pdf > 0.0:
         return 1.0
-    sel = tree_pdf(T, row, F[p, MIS_P], F[p, MIS_P + 1], F[p, MIS_P + 2], F[p, MIS_N], F[p, MIS_N + 1],
+    sel = tree_pdf(T.tree, row, F[p, MIS_P], F[p, MIS_P + 1], F[p, MIS_P + 2], F[p, MIS_N], F[p, MIS_N + 1],
                    F[p, MIS_N + 2], F[p, MIS_T], I[p, MIS_MODE])
     return mis_weight(prev_pdf, pdf * sel)
 
@@ -596,7 +596,7 @@ def _mis_from_last_vertex(T, F, I, p, row, pdf):
 @inline_stage_kernel
 def _select_in_segment(T, K, p, iteration, o, d, t):
     """A light for the next-event vertex of the segment o + s d, s in [0, t]: (row, probability)."""
-    return tree_select(T, _u(K, p, iteration, D_MED_SELECT), o[0], o[1], o[2], d[0], d[1], d[2], t, MODE_VOLUME)
+    return tree_select(T.tree, _u(K, p, iteration, D_MED_SELECT), o[0], o[1], o[2], d[0], d[1], d[2], t, MODE_VOLUME)
 
 
 @inline_stage_kernel
@@ -848,7 +848,7 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
     below = (pb[0] - n_face[0] * eps, pb[1] - n_face[1] * eps, pb[2] - n_face[2] * eps)
     # light selection at (pb, ns): Cycles' sd->P, sd->N, transmitting closures see both sides
     mis_mode = MODE_SURFACE_TRANSMIT if surface_is_transmissive(CB, count) else MODE_SURFACE
-    row, sel = tree_select(T, _u(K, p, iteration, D_SURF_SELECT), pb[0], pb[1], pb[2], ns[0], ns[1], ns[2], 0.0,
+    row, sel = tree_select(T.tree, _u(K, p, iteration, D_SURF_SELECT), pb[0], pb[1], pb[2], ns[0], ns[1], ns[2], 0.0,
                            mis_mode)
     if row >= 0:
         u1, u2 = _u(K, p, iteration, D_SURF_LU), _u(K, p, iteration, D_SURF_LV)

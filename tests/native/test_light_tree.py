@@ -6,8 +6,8 @@ the same image (z-test) with per-point and with static selection."""
 import numpy as np
 import pytest
 
-from volpath_native import (Camera, Material, Medium, Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight,
-                            World, render)
+from volpath_native import (AreaLight, Camera, Material, Medium, Mesh, PointLight, RenderSettings, Scene, SpotLight,
+                            SunLight, World, render)
 from volpath_native.accel import Accelerator
 from volpath_native.light_tree import MODE_SURFACE, MODE_SURFACE_TRANSMIT, MODE_VOLUME
 from volpath_native.lights import LightSet
@@ -47,9 +47,32 @@ def _many_lights(tree=True):
     return LightSet(scene, Accelerator(scene.meshes))
 
 
-@pytest.fixture(scope="module", params=["every_kind", "many"])
+def _apart():
+    """Three lamps far apart and the sky: leaves of one emitter, which the selection takes without
+    weighing them again (light_tree.tree_select / tree_pdf)."""
+    floor = Mesh("floor", np.array([[-5, -5, 0], [5, -5, 0], [5, 5, 0], [-5, 5, 0]], float),
+                 np.array([[0, 1, 2], [0, 2, 3]]), np.array([0, 0]))
+    lights = [SpotLight("spot", [-3, 0, 2.5], [400.0] * 3, direction=[0.3, 0, -1], spot_size=np.radians(50),
+                        spot_blend=0.3),
+              PointLight("point", [3, 0, 2], [150.0] * 3),
+              AreaLight("area", [0, 3, 2.5], [0.8, 0, 0], [0, 0, -0.6], [200.0] * 3)]  # facing -y
+    scene = Scene(camera=Camera(np.eye(4)), film=tiny_box_film(4), meshes=[floor],
+                  materials=[Material("floor", base_color=0.5)], lights=lights,
+                  world=World(background=[0.3, 0.4, 0.5]), settings=RenderSettings(samples=1))
+    return LightSet(scene, Accelerator(scene.meshes))
+
+
+@pytest.fixture(scope="module", params=["every_kind", "many", "apart"])
 def lights(request):
-    return _every_kind() if request.param == "every_kind" else _many_lights()
+    return {"every_kind": _every_kind, "many": _many_lights, "apart": _apart}[request.param]()
+
+
+def test_leaves_of_one_emitter_are_exercised():
+    """The 'apart' lights put every lamp and the sky in a leaf of its own (the shortcut path)."""
+    tree = _apart().tree
+    from volpath_native.light_tree import N_COUNT
+    counts = tree.node_i[:, N_COUNT]
+    assert np.count_nonzero(counts == 1) == 4, counts
 
 
 def _queries(n, seed):
