@@ -132,6 +132,27 @@ def light_position(T, row):
     return T.position[row, 0], T.position[row, 1], T.position[row, 2]
 
 
+@stage_kernel
+def equiangular_centre(T, row, u1, u2, time):
+    """The point equiangular sampling of a medium segment aims at, drawn with the (u1, u2) the next
+    event then samples light `row` with: on area lamps and emissive triangles a point uniform by
+    area, as Cycles aims at the light sample it draws for the whole segment
+    (kernel/integrator/shade_volume.h integrate_volume_sample_direct_light: equiangular_coeffs->P
+    = ls->P, area lights sampled by area in a volume segment) and samples the light again from
+    the vertex with the same numbers; a large lamp then spreads the distances over the segment
+    where its parts are close. Unbiased: given (u1, u2) the distance has the equiangular pdf
+    about this point, and for each distance the light sample keeps its own pdf (for emitters
+    sampled by area it is this very point; a rectangle is then sampled by solid angle). Other
+    lights: their centre."""
+    k = T.kind[row]
+    if k == AREA_RECT or k == AREA_ELLIPSE:
+        return _area_point(T, row, u1, u2, k == AREA_ELLIPSE)
+    if k == TRIANGLE:
+        yx, yy, yz, _, _, _, _ = _triangle_point(T, row, u1, u2, time)
+        return yx, yy, yz
+    return T.position[row, 0], T.position[row, 1], T.position[row, 2]
+
+
 # ---------------------------------------------------------------------------------------------
 # Sampling: (wx, wy, wz, dist, value r, g, b, pdf) before the selection probability
 # ---------------------------------------------------------------------------------------------
@@ -195,16 +216,25 @@ def _sample_surface_point(T, row, px, py, pz, yx, yy, yz, one_sided, nx, ny, nz,
 
 
 @stage_kernel
+def _area_point(T, row, u1, u2, ellipse):
+    """The point of a rectangle / ellipse lamp that (u1, u2) select, uniform by area."""
+    if ellipse:
+        x, y = concentric_disk1(u1, u2)
+        x, y = 0.5 * x, 0.5 * y
+    else:
+        x, y = u1 - 0.5, u2 - 0.5
+    return (T.position[row, 0] + T.axis_u[row, 0] * x + T.axis_v[row, 0] * y,
+            T.position[row, 1] + T.axis_u[row, 1] * x + T.axis_v[row, 1] * y,
+            T.position[row, 2] + T.axis_u[row, 2] * x + T.axis_v[row, 2] * y)
+
+
+@stage_kernel
 def _sample_area(T, row, px, py, pz, u1, u2, ellipse):
     """Area light, one-sided (Cycles kernel/light/area.h): a rectangle uniform in the solid angle
     it subtends (area_light_rect_sample), an ellipse uniform by area."""
     if not ellipse:
         return _sample_rectangle(T, row, px, py, pz, u1, u2)
-    x, y = concentric_disk1(u1, u2)
-    x, y = 0.5 * x, 0.5 * y
-    yx = T.position[row, 0] + T.axis_u[row, 0] * x + T.axis_v[row, 0] * y
-    yy = T.position[row, 1] + T.axis_u[row, 1] * x + T.axis_v[row, 1] * y
-    yz = T.position[row, 2] + T.axis_u[row, 2] * x + T.axis_v[row, 2] * y
+    yx, yy, yz = _area_point(T, row, u1, u2, True)
     return _sample_surface_point(T, row, px, py, pz, yx, yy, yz, True, T.normal[row, 0], T.normal[row, 1],
                                  T.normal[row, 2], T.area[row])
 
@@ -233,11 +263,9 @@ def triangle_sample_barycentrics(u1, u2):
 
 
 @stage_kernel
-def _sample_triangle(T, row, px, py, pz, u1, u2, time):
-    """Emissive triangle, uniform by area (Cycles kernel/light/triangle.h area sampling); a moving
-    one where it is at the ray's shutter time, with its normal and area then (Cycles
-    triangle_light_sample: triangle_world_space_vertices at the time; the selection stays by the
-    frame's area, as Cycles' distribution_area at a fixed time)."""
+def _triangle_point(T, row, u1, u2, time):
+    """The point of an emissive triangle that (u1, u2) select, uniform by area, where the
+    triangle is at shutter time `time`, with its unit normal and area then."""
     b1, b2 = triangle_sample_barycentrics(u1, u2)
     b0 = 1.0 - b1 - b2
     prim = T.triangle[row]
@@ -249,9 +277,17 @@ def _sample_triangle(T, row, px, py, pz, u1, u2, time):
         c0x, c0y, c0z, c1x, c1y, c1z, c2x, c2y, c2z = (c[0, 0], c[0, 1], c[0, 2], c[1, 0], c[1, 1], c[1, 2],
                                                        c[2, 0], c[2, 1], c[2, 2])
         nx, ny, nz, area = T.normal[row, 0], T.normal[row, 1], T.normal[row, 2], T.area[row]
-    yx = c0x * b0 + c1x * b1 + c2x * b2
-    yy = c0y * b0 + c1y * b1 + c2y * b2
-    yz = c0z * b0 + c1z * b1 + c2z * b2
+    return (c0x * b0 + c1x * b1 + c2x * b2, c0y * b0 + c1y * b1 + c2y * b2, c0z * b0 + c1z * b1 + c2z * b2,
+            nx, ny, nz, area)
+
+
+@stage_kernel
+def _sample_triangle(T, row, px, py, pz, u1, u2, time):
+    """Emissive triangle, uniform by area (Cycles kernel/light/triangle.h area sampling); a moving
+    one where it is at the ray's shutter time, with its normal and area then (Cycles
+    triangle_light_sample: triangle_world_space_vertices at the time; the selection stays by the
+    frame's area, as Cycles' distribution_area at a fixed time)."""
+    yx, yy, yz, nx, ny, nz, area = _triangle_point(T, row, u1, u2, time)
     return _sample_surface_point(T, row, px, py, pz, yx, yy, yz, not T.two_sided[row], nx, ny, nz, area)
 
 

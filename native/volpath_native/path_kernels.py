@@ -36,7 +36,7 @@ from .medium_motion import place_at_time
 from .grid_kernels import (STREAM_DIMENSIONS, grid_attenuation, grid_free_flight, grid_nee_distance_pdf,
                            grid_nee_distance_sample, grid_scattering, grid_transmittance)
 from .jit import inline_stage_kernel, stage_kernel
-from .light_kernels import (TRIANGLE, lamp_crossing_unselected, light_has_position, light_position,
+from .light_kernels import (TRIANGLE, equiangular_centre, lamp_crossing_unselected, light_has_position,
                             sample_light_selected, triangle_emission_unselected, triangle_sample_barycentrics)
 from .light_tree import (MODE_SURFACE, MODE_SURFACE_TRANSMIT, MODE_VOLUME, escaped_emission_mis_at, tree_pdf,
                          tree_select)
@@ -631,7 +631,8 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
     t_lit0, t_lit1 = light_segment(T, row, o, d, t_end)  # where the light can reach
     if not (can_equi or can_distance) or not t_lit0 <= t_lit1:
         return n_shadow
-    setup = equiangular_setup1(o, d, t_lit0, t_lit1, light_position(T, row))
+    centre = equiangular_centre(T, row, _u(K, p, iteration, D_MED_LU), _u(K, p, iteration, D_MED_LV), F[p, TIME])
+    setup = equiangular_setup1(o, d, t_lit0, t_lit1, centre)
     if _u(K, p, iteration, D_MED_TECH) < prob_eq:
         t = equiangular_sample1(setup, u_t)
     else:
@@ -1019,7 +1020,8 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
     t_lit0, t_lit1 = light_segment(T, row, o, d, t_end)  # where the light can reach
     if not (can_equi or finite) or not t_lit0 <= t_lit1:
         return n_shadow
-    setup = equiangular_setup1(o, d, t_lit0, t_lit1, light_position(T, row))
+    centre = equiangular_centre(T, row, _u(K, p, iteration, D_MED_LU), _u(K, p, iteration, D_MED_LV), F[p, TIME])
+    setup = equiangular_setup1(o, d, t_lit0, t_lit1, centre)
     u_t = _u(K, p, iteration, D_MED_T)
     u_tech = _u(K, p, iteration, D_MED_TECH)
     G = GR[_first_grid(S, C, p)]

@@ -13,7 +13,7 @@ from volpath_native.accel import Accelerator
 from volpath_native.camera import CameraModel
 from volpath_native.grid_medium import GridMedium
 from volpath_native.jit import kernel
-from volpath_native.light_kernels import sample_light
+from volpath_native.light_kernels import equiangular_centre, sample_light
 from volpath_native.light_segment import light_segment
 from volpath_native.lights import LightSet
 from volpath_native.media import equiangular_pdf1, equiangular_sample1, equiangular_setup1
@@ -140,6 +140,37 @@ G = 0.3
 SIZE = 8
 SPOT = dict(position=np.array([1.6, 0.2, -3.0]), direction=np.array([-1.0, 0.0, 0.25]), size=np.radians(16))
 AREA = dict(position=np.array([0.3, 2.2, -3.0]), u=np.array([0.6, 0.0, 0.0]), v=np.array([0.0, 0.45, -0.45]))
+
+
+@kernel
+def _centres_and_light_points(T, row, x, u1, u2, out):
+    """Per (u1, u2): the equiangular centre and the light point the next event from x connects to."""
+    for i in range(u1.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = equiangular_centre(T, row, u1[i], u2[i], 0.5)
+        s = sample_light(T, row, x[0], x[1], x[2], u1[i], u2[i], 0.5)
+        out[i, 3], out[i, 4], out[i, 5] = x[0] + s[0] * s[3], x[1] + s[1] * s[3], x[2] + s[2] * s[3]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_equiangular_aims_at_the_light_point_the_next_event_connects_to(lights, name):
+    """Area lamps: equiangular sampling aims at a point of the lamp drawn with the next event's
+    numbers (Cycles' ls->P), spread over it; the ellipse, sampled by area from anywhere, is then
+    connected to that very point (the rectangle is sampled by solid angle from the vertex); the
+    other lights: their centre."""
+    row = NAMES.index(name)
+    rng = np.random.default_rng(row)
+    u1, u2 = rng.random(64), rng.random(64)
+    out = np.empty((64, 6))
+    _centres_and_light_points(lights.tables, row, (0.3, -0.2, 0.4), u1, u2, out)
+    centres = out[:, :3]
+    if name in ("rect", "ellipse"):
+        if name == "ellipse":
+            np.testing.assert_allclose(centres, out[:, 3:], atol=1e-9)
+        on_lamp = (centres - lights.position[row]) @ lights.normal[row]
+        np.testing.assert_allclose(on_lamp, 0.0, atol=1e-9)
+        assert np.ptp(centres, axis=0).max() > 0.5  # across the lamp, not its middle
+    else:
+        np.testing.assert_allclose(centres, np.broadcast_to(lights.position[row], centres.shape))
 
 
 def _fog_scene(light, samples, seed, sampling="mis"):
