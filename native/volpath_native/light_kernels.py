@@ -106,18 +106,23 @@ def _unit(x, y, z):
 # Selection
 # ---------------------------------------------------------------------------------------------
 @stage_kernel
-def select_light(T, u):
-    """Row with select_cdf[row-1] <= u < select_cdf[row] (searchsorted right), clamped to
-    count - 1 (-1 without lights)."""
-    cdf = T.select_cdf
-    lo, hi = 0, T.count
+def cdf_row(cdf, count, u):
+    """Row with cdf[row-1] <= u < cdf[row] (searchsorted right), clamped to count - 1 (-1 when
+    count is 0)."""
+    lo, hi = 0, count
     while lo < hi:
         mid = (lo + hi) >> 1
         if cdf[mid] <= u:
             lo = mid + 1
         else:
             hi = mid
-    return np.int64(min(lo, T.count - 1))
+    return np.int64(min(lo, count - 1))
+
+
+@stage_kernel
+def select_light(T, u):
+    """The light chosen by power: cdf_row of the selection cdf."""
+    return cdf_row(T.select_cdf, T.count, u)
 
 
 @stage_kernel

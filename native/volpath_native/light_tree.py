@@ -27,7 +27,7 @@ import numpy as np
 
 from .jit import kernel, stage_kernel
 from .light_kernels import (AREA_ELLIPSE, AREA_RECT, DISK, POINT, SPHERE, SUN, TRIANGLE, WORLD,
-                            distant_emission_unselected)
+                            cdf_row, distant_emission_unselected)
 from .mis import mis_weight
 
 LightTreeTables = namedtuple("LightTreeTables", [
@@ -759,16 +759,8 @@ def _leaf_probability(mx, mn, total_max, total_min, n_important):
 
 @stage_kernel
 def _select_static(LT, u):
-    """Row with select_cdf[row-1] <= u < select_cdf[row] (light_kernels.select_light)."""
-    cdf = LT.select_cdf
-    lo, hi = 0, LT.count
-    while lo < hi:
-        mid = (lo + hi) >> 1
-        if cdf[mid] <= u:
-            lo = mid + 1
-        else:
-            hi = mid
-    return np.int64(min(lo, LT.count - 1))
+    """The light chosen by power (light_kernels.select_light on the tree's packed tables)."""
+    return cdf_row(LT.select_cdf, LT.count, u)
 
 
 # ---------------------------------------------------------------------------------------------
