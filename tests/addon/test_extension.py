@@ -251,7 +251,8 @@ _EXTENSION_SCRIPT = textwrap.dedent('''
     bpy.ops.render.render(write_still=True)
     from volpath_native import jit
     from volpath_native.sampling import uniform1
-    assert 0.0 <= uniform1(np.uint64(7), 1) < 1.0  # run by the bundled numba, cached per user
+    # the signature the kernels call it with (tracking draws: uint64 key and dimension): shipped
+    assert 0.0 <= uniform1(np.uint64(7), np.uint64(1)) < 1.0  # run by the bundled numba, cached per user
     assert list(cache.rglob("*.nbi")), "numba wrote no cache index into " + str(cache)
     # the first render of a fresh install compiled nothing: the kernels shipped in the wheel
     # seeded the per-user cache and loaded from it
