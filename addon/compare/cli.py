@@ -44,6 +44,9 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--seconds", type=float, default=10.0, help="equal-time budget per engine")
         p.add_argument("--reference", type=Path, help="high-sample reference EXR")
         p.add_argument("--resolution", type=_parse_resolution, help="override, e.g. 64x64")
+        p.add_argument("--cycles-motion-as-stills", type=int, default=0, metavar="N",
+                       help="Cycles' motion blur as N stills per run over the shutter (its blur of moving "
+                            "volumes is biased); equal-samples only")
     run.add_argument("--spp", type=int, default=64, help="equal-samples: total samples per pixel per engine")
     demo.add_argument("--spp", type=int, default=DEMO_SAMPLES)
     demo.add_argument("--example", default=DEMO_EXAMPLE,
@@ -124,7 +127,8 @@ def main(argv=None) -> int:
         return write_reference(args)
     options = runner.CompareOptions(mode=args.mode, samples=args.spp, seconds=args.seconds, runs=args.runs,
                                     seed=args.seed, alpha=args.alpha, resolution=args.resolution,
-                                    reference=str(args.reference) if args.reference else None)
+                                    reference=str(args.reference) if args.reference else None,
+                                    cycles_motion_as_stills=args.cycles_motion_as_stills)
     try:
         options.validate()
         with quiet_stdout():

@@ -175,13 +175,18 @@ def render_once(scene, *, samples: int, seed: int, scratch: Optional[Path] = Non
 def render_runs(scene, *, runs: int, samples: int, base_seed: int, bounces: BounceLimits,
                 time_limit: float = 0.0, resolution: Optional[tuple] = None,
                 progress: Optional[Callable[[int, int], None]] = None,
-                cancel: Optional[Callable[[], bool]] = None) -> list:
+                cancel: Optional[Callable[[], bool]] = None, motion_as_stills: int = 0) -> list:
     """`runs` independent Cycles renders (seeds base_seed, base_seed + 1, ...).
 
     time_limit > 0: each run renders the sample count that fits that many seconds, measured by a
     pilot render (Cycles' own time limit would stop on time but does not report how many samples
     it finished: its metadata stamps the requested count).
+    motion_as_stills > 0: each run is the mean of that many still renders (motion blur off) at
+    stratified shutter times (render_shutter_stills): Cycles' own blur of a moving volume is
+    biased (export/motion.py moving_volume_note). Equal-samples only.
     """
+    if motion_as_stills > 0 and time_limit > 0:
+        raise ValueError("Cycles motion as stills renders a fixed sample count: not in equal-time mode")
     results = []
     with matched_settings(scene, bounces, resolution):
         if time_limit > 0:
@@ -189,10 +194,44 @@ def render_runs(scene, *, runs: int, samples: int, base_seed: int, bounces: Boun
         for k in range(runs):
             if cancel is not None and cancel():
                 raise InterruptedError("comparison cancelled")
-            results.append(render_once(scene, samples=samples, seed=base_seed + k))
+            if motion_as_stills > 0:
+                results.append(render_shutter_stills(scene, stills=motion_as_stills, samples=samples,
+                                                     seed=base_seed + k))
+            else:
+                results.append(render_once(scene, samples=samples, seed=base_seed + k))
             if progress:
                 progress(k + 1, runs)
     return results
+
+
+def render_shutter_stills(scene, *, stills: int, samples: int, seed: int) -> CyclesRun:
+    """One run of `samples` spp as the mean of `stills` still renders (motion blur off, the frame
+    moved to each time), one time drawn uniformly in each of `stills` equal parts of the shutter
+    (an unbiased estimate of the shutter's time integral; the spread between runs carries the time
+    sampling's variance). Assumes the default flat shutter curve and no rolling shutter."""
+    from ..export.motion import shutter_times
+
+    if not scene.render.use_motion_blur:
+        return render_once(scene, samples=samples, seed=seed)
+    if samples % stills:
+        raise ValueError(f"samples per run ({samples}) must be a multiple of the stills per run ({stills})")
+    centre, shutter = shutter_times(scene)
+    frame, subframe = scene.frame_current, float(scene.frame_subframe)
+    offsets = np.random.default_rng(seed).random(stills)
+    runs = []
+    try:
+        scene.render.use_motion_blur = False
+        for k in range(stills):
+            time_k = centre + shutter * ((k + offsets[k]) / stills - 0.5)
+            whole = int(np.floor(time_k))
+            scene.frame_set(whole, subframe=float(time_k - whole))
+            runs.append(render_once(scene, samples=samples // stills, seed=seed * stills + k))
+    finally:
+        scene.render.use_motion_blur = True
+        scene.frame_set(frame, subframe=subframe)
+    image = np.mean([r.image for r in runs], axis=0, dtype=np.float64).astype(np.float32)
+    return CyclesRun(image=image, samples=samples, seconds=sum(r.seconds for r in runs),
+                     render_seconds=sum(r.render_seconds for r in runs))
 
 
 def samples_for_budget(scene, seconds: float, seed: int) -> int:

@@ -61,6 +61,10 @@ class VOLPATH_OT_compare_with_cycles(bpy.types.Operator):
                       description="Independent renders per engine (their spread gives the per-pixel variance)")
     reference: StringProperty(name="Reference", subtype="FILE_PATH", default="",
                               description="Optional high-sample reference EXR (same resolution)")
+    cycles_motion_as_stills: IntProperty(
+        name="Cycles Motion as Stills", default=0, min=0, max=64,
+        description="Equal samples: Cycles' motion blur as this many stills per run over the shutter (Cycles' own "
+                    "blur of moving volumes is biased); 0 renders Cycles' motion blur")
     output: StringProperty(name="Output", subtype="DIR_PATH", default="//volpath_compare/",
                            description="Folder for the EXRs, the sheet and the reports")
 
@@ -83,7 +87,8 @@ class VOLPATH_OT_compare_with_cycles(bpy.types.Operator):
             return {"CANCELLED"}
         options = runner.CompareOptions(mode=self.mode, samples=max(self.samples, self.runs),
                                         seconds=self.seconds, runs=self.runs, seed=0,
-                                        reference=bpy.path.abspath(self.reference) if self.reference else None)
+                                        reference=bpy.path.abspath(self.reference) if self.reference else None,
+                                        cycles_motion_as_stills=self.cycles_motion_as_stills)
         out_dir = _output_folder(self.output)
         wm = context.window_manager
         wm.progress_begin(0, 100)

@@ -34,6 +34,9 @@ class CompareOptions:
     alpha: float = 0.01        # family-wise significance of the agreement tests
     resolution: Optional[tuple] = None  # override (width, height); None keeps the scene's
     reference: Optional[str] = None     # high-sample reference EXR for each engine's error
+    # > 0: Cycles' motion blur as that many stills per run over the shutter (moving volumes: its
+    # own blur of them is biased, export/motion.py moving_volume_note); equal-samples only
+    cycles_motion_as_stills: int = 0
 
     def validate(self) -> None:
         if self.mode not in MODES:
@@ -46,6 +49,12 @@ class CompareOptions:
             raise ValueError("seconds must be positive in equal-time mode")
         if not 0 < self.alpha < 1:
             raise ValueError("alpha must be in (0, 1)")
+        if self.cycles_motion_as_stills > 0:
+            if self.mode != "equal-samples":
+                raise ValueError("Cycles motion as stills works in equal-samples mode only")
+            if self.samples_per_run % self.cycles_motion_as_stills:
+                raise ValueError(f"samples per run ({self.samples_per_run}) must be a multiple of the Cycles stills "
+                                 f"per run ({self.cycles_motion_as_stills})")
 
     @property
     def samples_per_run(self) -> int:
@@ -168,7 +177,7 @@ def compare_scene(scene, options: CompareOptions, out_dir=None, progress: Option
     cycles_runs = cycles_engine.render_runs(
         scene, runs=options.runs, samples=options.samples_per_run, base_seed=options.seed, bounces=bounces,
         time_limit=per_run_seconds, resolution=options.resolution, cancel=cancel,
-        progress=lambda k, n: bar.step(f"Cycles run {k}/{n}"))
+        progress=lambda k, n: bar.step(f"Cycles run {k}/{n}"), motion_as_stills=options.cycles_motion_as_stills)
 
     volpath = EngineResult("VolPath", volpath_runs, metrics.run_statistics([r.image for r in volpath_runs]),
                            warm_up_seconds=warm_up_seconds)

@@ -263,6 +263,7 @@ def _export_grid_media(depsgraph, sources: set, table: shading.MaterialTable, re
         if path is not None:
             try:
                 medium.set_motion(path, volume.object_to_world)
+                messages.append(motion.moving_volume_note(f"volume '{volume.object_name}'"))
             except vp.SceneError as error:  # e.g. scaled to nothing at a step
                 messages.append(f"{error}; rendered where it is at the shutter centre")
         table.media.append(medium)

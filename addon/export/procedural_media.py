@@ -15,6 +15,8 @@ from volpath_native.shading import program as P
 from volpath_native.shading.images import empty_image_table
 from volpath_native.shading.interpreter import run_program_many
 
+from .motion import moving_volume_note
+
 
 def generated_transform(obj, vertices: np.ndarray) -> np.ndarray:
     """3x4 object -> Generated map of a mesh: (P - L) / 2S + 0.5 with the evaluated data's texture
@@ -106,6 +108,7 @@ class ProceduralMedia:
         if motion is not None:
             try:
                 medium.set_motion(motion)
+                table.reporter.warn(moving_volume_note(f"material '{material.name}' on '{instance_name}'"))
             except vp.SceneError as error:  # e.g. scaled to nothing at a step
                 table.reporter.warn(f"{error}; its shader is evaluated where the object is at the shutter centre")
         for message in medium.warnings():

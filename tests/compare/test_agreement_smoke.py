@@ -13,13 +13,14 @@ import pytest
 
 from addon.compare import runner
 
-from agreement_checks import assert_engines_agree
+from agreement_checks import assert_engines_agree, unexpected_warnings
 
 RESOLUTION = (32, 32)
 SAMPLES = 160  # per engine, split over the runs
 RUNS = 5
 GRID_SHAPE = (24, 24, 48)
 DENSITY = 5.0
+MOVING_STILLS_PER_RUN = 8  # Cycles' side of the moving plume: 8 stills of 4 spp a run
 
 
 # Fire: three grids make Cycles' sync ~13 s per render, so a coarser grid, fewer pixels and runs.
@@ -55,9 +56,11 @@ def test_volpath_agrees_with_cycles_on_smoke(registered_addon, tmp_path, fire):
 @pytest.mark.agreement
 def test_moving_smoke_agrees_with_cycles_and_a_still_one_does_not(registered_addon, tmp_path):
     """The plume (a Volume object) sliding and turning while the shutter is open for a whole frame:
-    Cycles shades it with its transform at each ray's time; VolPath places the grid medium at each
-    path's time. Planted: VolPath's medium left at the shutter centre (its box still moving) must
-    fail against the same Cycles runs."""
+    VolPath places the grid medium at each path's time. Cycles' own blur of it is biased (its
+    majorant octree stays at the frame's transform: export/motion.py moving_volume_note; measured
+    0.46 % brighter than the mean of its stills, VolPath within 0.04 % of them), so Cycles' side
+    is its stills at stratified shutter times (cycles_motion_as_stills). Planted: VolPath's medium
+    left at the shutter centre (its box still moving) must fail against the same Cycles runs."""
     import math
 
     from addon.compare import metrics, volpath_engine
@@ -77,11 +80,12 @@ def test_moving_smoke_agrees_with_cycles_and_a_still_one_does_not(registered_add
     scene.render.use_motion_blur = True
     scene.render.motion_blur_shutter = 1.0
     native_scene, warnings = volpath_engine.export(scene, RESOLUTION)
-    assert not warnings, warnings
+    assert len(warnings) == 1 and warnings[0].startswith("volume 'Plume'") and not unexpected_warnings(warnings)
     (grid,) = [m for m in native_scene.media if getattr(m, "motion", None) is not None]
     assert len(grid.motion) == 3
 
-    result = runner.compare_scene(scene, runner.CompareOptions(samples=SAMPLES, runs=RUNS, seed=1))
+    result = runner.compare_scene(scene, runner.CompareOptions(samples=SAMPLES, runs=RUNS, seed=1,
+                                                               cycles_motion_as_stills=MOVING_STILLS_PER_RUN))
     assert_engines_agree(result, "moving smoke", tmp_path)
     grid.motion = None
     still = volpath_engine.render_runs(native_scene, runs=RUNS, samples=SAMPLES // RUNS, base_seed=1)

@@ -87,9 +87,12 @@ def test_bad_options_are_rejected():
     from addon.compare import runner
 
     for options in (runner.CompareOptions(runs=1), runner.CompareOptions(mode="fastest"),
-                    runner.CompareOptions(samples=4, runs=8), runner.CompareOptions(mode="equal-time", seconds=0)):
+                    runner.CompareOptions(samples=4, runs=8), runner.CompareOptions(mode="equal-time", seconds=0),
+                    runner.CompareOptions(mode="equal-time", cycles_motion_as_stills=4),
+                    runner.CompareOptions(samples=48, runs=8, cycles_motion_as_stills=4)):  # 6 spp: not 4 stills
         with pytest.raises(ValueError):
             options.validate()
+    runner.CompareOptions(samples=64, runs=8, cycles_motion_as_stills=4).validate()  # 8 spp as 4 stills of 2
 
 
 def test_reference_of_wrong_size_is_a_clear_error(fog_scene, tmp_path):
