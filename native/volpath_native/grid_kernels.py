@@ -57,6 +57,7 @@ GridTables = namedtuple("GridTables", [
     "majorant",           # (R0,R1,R2) float64 scalar majorant per cell (free flight, plain ratio tracking)
     "control",            # (R0,R1,R2,3) float64 per-channel control extinction per cell (residual ratio tracking)
     "residual_rate",      # (R0,R1,R2) float64 bound of |sigma_t - control| per cell (residual ratio tracking)
+    "extrema",            # (R0,R1,R2,2) float64 smallest and largest sigma_t (any channel) per cell
     "cell_shape",         # (3,) int64 majorant cells per axis
     "index_to_cell",      # (3,) float64 scale from index space to majorant-cell space
     "g",                  # float, Henyey-Greenstein anisotropy

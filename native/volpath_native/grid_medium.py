@@ -286,6 +286,7 @@ class GridMedium:
         # factor lies in [0, 2] (grid_kernels._track mode 1).
         self.control_rgb = 0.5 * (self.majorant_rgb + self.minorant_rgb)
         self.residual_rate = RESIDUAL_MARGIN * 0.5 * (self.majorant_rgb - self.minorant_rgb).max(axis=-1)
+        self.extinction_extrema = np.stack([self.minorant_rgb.min(axis=-1), self.majorant_rgb.max(axis=-1)], axis=-1)
         # Scalar majorant (max channel), as Cycles: one free-flight distribution for all channels.
         majorant = self.majorant_rgb.max(axis=-1)
         emissive = np.zeros(majorant.shape, dtype=bool)
@@ -407,7 +408,7 @@ class GridMedium:
     def memory_bytes(self) -> int:
         arrays = [self.density, self.scatter_grid, self.absorb_grid, self.emission_grid, self.majorant_grid,
                   self.majorant_density, self.majorant_rgb, self.minorant_rgb, self.control_rgb,
-                  self.residual_rate]
+                  self.residual_rate, self.extinction_extrema]
         return int(sum(a.nbytes for a in arrays if a is not None))
 
     # ------------------------------------------------------------------------------------------
@@ -433,6 +434,7 @@ class GridMedium:
             shape=self.shape,
             sigma_s=self.sigma_s, sigma_a=self.sigma_a, emission=self.emission,
             majorant=self.majorant_grid, control=self.control_rgb, residual_rate=self.residual_rate,
+            extrema=self.extinction_extrema,
             cell_shape=self.majorant_shape,
             index_to_cell=self.majorant_shape / (self.shape - 1).astype(np.float64),
             g=self.g,

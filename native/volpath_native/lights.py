@@ -132,13 +132,26 @@ class LightSet:
             self.tree_energy[-1] = self.world_radiance.mean() * np.pi  # LIGHT_BACKGROUND: x pi
         # corners of every triangle, indexed by triangle id: only mesh lights read them
         self.corners = accel.corners if n_tri else np.zeros((0, 3, 3))
+        if n > self.n_lamps + n_tri and np.any(power[:-1] > 0):
+            # Cycles disables the background light of a world shader that does not vary over
+            # directions (scene/light.cpp, LightManager::test_enabled_lights: "Background MIS has
+            # been disabled"): next events never pick it and escaped rays take its full radiance
+            # (its selection pdf is 0, so their MIS weight is 1). VolPath's world is one colour.
+            # Picking it anyway cost the noise cloud's floor most of its error: the sky's
+            # full-sphere cone made the distant branch's lower importance bound 0, so the tree
+            # over-picked the point light against the sun (README, Benchmarks). As the scene's only
+            # emitter it stays selectable (a next event where Cycles samples none: unbiased either way).
+            power[-1] = 0.0
+            self.tree_energy[-1] = 0.0
         # One light per row chosen proportionally to its power (Cycles' light tree refines this
         # spatially; the estimator stays unbiased either way).
         total = power.sum()
         self.select_prob = power / total if total > 0 else np.zeros(n)
         self.select_cdf = np.cumsum(self.select_prob)
         if n:
-            self.select_cdf[-1] = 1.0
+            # rows of probability 0 at the end (the world above) are never reached by rounding
+            selectable = np.nonzero(self.select_prob > 0)[0]
+            self.select_cdf[selectable[-1] if len(selectable) else n - 1:] = 1.0
         # Triangle id -> light row, for MIS when a ray hits an emissive triangle.
         self.row_of_triangle = np.full(accel.triangle_count, -1, np.int64)
         self.row_of_triangle[self.emissive_tris] = np.arange(self.n_lamps, self.n_lamps + n_tri)

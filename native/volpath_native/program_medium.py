@@ -221,6 +221,8 @@ class ProgramMedium(GridMedium):
         self.majorant_density = self.majorant_grid
         self.majorant_rgb = np.repeat(self.majorant_grid[..., None], 3, axis=-1)
         self.minorant_rgb = low_rgb
+        # the sampled extinction range per cell, without margin (telescoping_transmittance's segments)
+        self.extinction_extrema = np.stack([low_rgb.min(axis=-1), high_rgb.max(axis=-1)], axis=-1)
         # The control and residual rate are sampled too: where sigma_t leaves control +- rate the
         # ratio factors of residual tracking leave [0, 2] (signed), which keeps it unbiased.
         if RESIDUAL_DILATION:

@@ -117,6 +117,23 @@ def test_constant_world():
     _check(_floor_scene(world=World(background=[0.5, 1.0, 2.0])), np.pi * np.array([0.5, 1.0, 2.0]))
 
 
+def test_constant_world_beside_a_sun_comes_from_escaped_rays_alone():
+    """Beside another emitter a constant world is never a next-event light (Cycles disables such a
+    background light, scene/light.cpp test_enabled_lights); escaped BSDF rays then take its full
+    radiance. An MIS weight below 1 for them (weighing against a light that is never picked) would
+    lose part of the world's third of the floor's light: _check holds the result to 0.1 % (both
+    parts are deterministic here: a delta sun, a constant world under cosine sampling)."""
+    from volpath_native.accel import Accelerator
+    from volpath_native.lights import LightSet
+    irradiance, world = np.array([3.0, 2.0, 1.0]), np.array([0.5, 1.0, 2.0])
+    scene = _floor_scene([SunLight("sun", [0, 0, -1], irradiance, angle=0.0)], world=World(background=world))
+    lights = LightSet(scene, Accelerator(scene.meshes))
+    assert lights.world_row >= 0 and lights.select_prob[lights.world_row] == 0.0
+    _check(scene, irradiance + np.pi * world)
+    alone = LightSet(_floor_scene(world=World(background=world)), Accelerator(scene.meshes))
+    assert alone.select_prob[alone.world_row] == 1.0  # the only emitter stays selectable
+
+
 def test_emissive_mesh_two_sided_and_one_sided():
     radiance = np.array([2.0, 1.0, 0.5])
     corners = [np.array(c, float) for c in [[-1, -0.5, H], [1.5, -0.5, H], [1.5, 1, H], [-1, 1, H]]]

@@ -100,10 +100,12 @@ def test_scalar_kernels_equal_the_array_api(lights):
     expected = np.column_stack([ls.wi, ls.dist, ls.value, ls.pdf])
     np.testing.assert_array_equal(out, expected)
     assert np.all(np.isfinite(out[:, [0, 1, 2, 4, 5, 6, 7]]))
-    # delta lights have pdf 0, every other kind a positive pdf somewhere
+    # delta lights have pdf 0, and so does the constant world beside other emitters (never
+    # selected, as Cycles' disabled background light); every other kind a positive pdf somewhere
+    assert lights.select_prob[lights.world_row] == 0.0 and lights.tree.leaf_of_row[lights.world_row] == -1
     for row in range(lights.count):
         delta = lights.kind[row] == POINT or (lights.kind[row] == SUN and lights.cos_half[row] == 1.0)
-        assert (out[rows == row, 7].max() == 0) == delta
+        assert (out[rows == row, 7].max() == 0) == (delta or row == lights.world_row)
 
     u = np.concatenate([rng.random(1000), lights.select_cdf, [0.0, np.nextafter(1.0, 0)]])
     selected = np.zeros(len(u), np.int64)
@@ -215,7 +217,7 @@ def test_sampled_directions_evaluate_to_the_same_pdf_and_radiance(lights):
     np.testing.assert_allclose(out[finite, 0], ls.dist[finite], rtol=1e-7)
     no_spot = found & (lights.spot_smooth[rows] == 0)
     np.testing.assert_allclose(out[no_spot, 1:4], ls.value[no_spot] * ls.pdf[no_spot, None], rtol=1e-9)
-    for k in (DISK, SPHERE, AREA_RECT, AREA_ELLIPSE, SUN, TRIANGLE, WORLD):
+    for k in (DISK, SPHERE, AREA_RECT, AREA_ELLIPSE, SUN, TRIANGLE):  # the world: selection pdf 0 here
         assert found[kind == k].sum() > 100, k
 
 
