@@ -7,11 +7,12 @@ each engine needs for Cycles' error ("x Cycles' time", relMSE x time being const
 Monte Carlo). VolPath and Cycles are measured against a Cycles reference (equal_time.py); Mitsuba,
 whose film filter and bounce limits differ (mitsuba_peer.py), against its own reference, with its
 image mean against Cycles' reference printed as a check. Rows Mitsuba cannot render as Cycles
-does show the reason instead. The procedural, grid and surface rows run in bench_procedural.py,
-bench_cloud.py, bench_fire.py and bench_surfaces.py.
+does show the reason instead. Default: the homogeneous rows; `--rows all` adds the heterogeneous
+ones (height fog, noise cloud, procedural fire, smoke plume, 128^3 cloud). The Quick Smoke fire
+(a Mantaflow bake: Debian's Blender) stays in bench_fire.py.
 
     python tests/benchmarks/bench_equal_time_table.py [--seconds 10] [--reference-spp 1024] [--resolution 64]
-        [--rows cornell_point,...] [--no-mitsuba] [--quick]
+        [--rows cornell_point,...|all] [--no-mitsuba] [--quick]
 """
 from __future__ import annotations
 
@@ -46,16 +47,41 @@ def _lights_visible(scene):
             obj.visible_camera = True
 
 
-# name: (example module, build keyword arguments, tweak applied to the Blender scene for all engines)
+def _example(module: str, **kwargs):
+    """A row built by examples/<module>.py at the table's resolution."""
+    def build(resolution: int, folder: Path):
+        return importlib.import_module(f"examples.{module}").build(resolution=(resolution,) * 2, samples=16, **kwargs)
+    return build
+
+
+def _smoke_plume(resolution: int, folder: Path):
+    from examples import smoke_plume  # a Volume object from a .vdb written here
+    return smoke_plume.build(resolution=(resolution,) * 2, samples=16, vdb_path=folder / "plume.vdb")
+
+
+def _cloud_128(resolution: int, folder: Path):
+    import bench_cloud  # the 128^3 cloud, sun + sky
+    return bench_cloud.build_scene(folder / "cloud.vdb", resolution)
+
+
+# name: (scene builder (resolution, scratch folder), tweak applied to the Blender scene for all engines)
 ROWS = {
-    "cornell_point": ("cornell_fog", {}, None),
-    "cornell_spot": ("spot_godrays", {}, _spot_hard_edge),
-    "cornell_area": ("area_light", {}, _lights_visible),
-    "sun_godrays": ("sun_window", {"world_volume": False}, None),
-    "chromatic_absorber": ("absorbing_medium", {}, None),
-    "dense_fog": ("heavy_density", {}, None),
-    "glass_of_liquid": ("glass_of_liquid", {}, None),
+    "cornell_point": (_example("cornell_fog"), None),
+    "cornell_spot": (_example("spot_godrays"), _spot_hard_edge),
+    "cornell_area": (_example("area_light"), _lights_visible),
+    "sun_godrays": (_example("sun_window", world_volume=False), None),
+    "chromatic_absorber": (_example("absorbing_medium"), None),
+    "dense_fog": (_example("heavy_density"), None),
+    "glass_of_liquid": (_example("glass_of_liquid"), None),
+    # heterogeneous media (Mitsuba's column: not translated)
+    "height_fog": (_example("height_fog"), None),
+    "noise_cloud": (_example("noise_cloud"), None),
+    "procedural_fire": (_example("procedural_fire"), None),
+    "smoke_plume": (_smoke_plume, None),
+    "cloud_128": (_cloud_128, None),
 }
+HOMOGENEOUS_ROWS = ("cornell_point", "cornell_spot", "cornell_area", "sun_godrays", "chromatic_absorber",
+                    "dense_fog", "glass_of_liquid")
 
 
 def main(argv=None) -> int:
@@ -63,7 +89,8 @@ def main(argv=None) -> int:
     parser.add_argument("--seconds", type=float, default=10.0, help="equal render-time budget per engine")
     parser.add_argument("--reference-spp", type=int, default=1024)
     parser.add_argument("--resolution", type=int, default=64)
-    parser.add_argument("--rows", default=",".join(ROWS), help="comma-separated row names")
+    parser.add_argument("--rows", default=",".join(HOMOGENEOUS_ROWS),
+                        help=f"comma-separated row names, or 'all' (of {', '.join(ROWS)})")
     parser.add_argument("--no-mitsuba", action="store_true")
     parser.add_argument("--quick", action="store_true", help="32x32, 2 s, reference 128 spp (smoke test)")
     args = parser.parse_args(argv)
@@ -82,14 +109,13 @@ def main(argv=None) -> int:
     print(f"kernel warm-up {volpath_native.warm_up():.1f} s (not counted)")
     pixels = args.resolution ** 2
     table = []
-    for name in args.rows.split(","):
-        module, kwargs, tweak = ROWS[name]
-        scene = importlib.import_module(f"examples.{module}").build(resolution=(args.resolution,) * 2, samples=16,
-                                                                    **kwargs)
-        if tweak:
-            tweak(scene)
-        native_scene, _ = volpath_engine.export(scene)
+    for name in (list(ROWS) if args.rows == "all" else args.rows.split(",")):
+        build, tweak = ROWS[name]
         with tempfile.TemporaryDirectory(prefix=f"volpath_bench_{name}_") as tmp:
+            scene = build(args.resolution, Path(tmp))
+            if tweak:
+                tweak(scene)
+            native_scene, _ = volpath_engine.export(scene)
             row = equal_time_row(name, scene, native_scene, args.seconds, args.reference_spp, Path(tmp))
         print(*row.lines(pixels), sep="\n", flush=True)
         mitsuba_cell = "-"

@@ -1,15 +1,22 @@
 """Equal render-time comparison of VolPath and Cycles on one Blender scene, shared by the benchmarks.
 
-Reference: one high-sample Cycles render (seed 1000), which also gives Cycles' cost per sample;
-then each engine renders for the same render-time budget (Cycles' scene sync excluded, as its own
+Reference: one high-sample Cycles render (seed 1000), which also gives Cycles' cost per sample,
+kept on disk (REFERENCE_CACHE, keyed by the scene as VolPath exports it, the resolution, the sample
+count and Blender's version; a pilot render then measures the cost per sample); then each engine renders for the same render-time budget (Cycles' scene sync excluded, as its own
 time limit does). relMSE against a noisy reference holds the reference's own error: for Cycles
 (independent, same estimator) E[raw] = e_c (1 + n_c / n_ref); that share is removed from both.
 """
 from __future__ import annotations
 
+import hashlib
+import json
+import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
+
+REFERENCE_CACHE = Path(os.environ.get("VOLPATH_REFERENCE_CACHE", Path.home() / ".cache" / "volpath" / "references"))
 
 
 @dataclass
@@ -69,11 +76,18 @@ def equal_time_rows(name: str, scene, native_scenes: dict, seconds: float, refer
 
     first = next(iter(native_scenes.values()))
     bounces = cycles_engine.BounceLimits.from_settings(first.settings)
+    cached = _reference_path(first, reference_spp, scratch)
     with cycles_engine.matched_settings(scene, bounces, resolution):
-        reference = cycles_engine.render_once(scene, samples=reference_spp, seed=1000, scratch=scratch)
-        cycles_per_sample = reference.render_seconds / reference_spp
-        cycles_run = cycles_engine.render_once(scene, samples=max(1, int(seconds / cycles_per_sample)), seed=1,
-                                               scratch=scratch)
+        if cached.exists():
+            from volpath_native import imageio
+            reference = cycles_engine.CyclesRun(image=imageio.read_exr(cached), samples=reference_spp, seconds=0.0,
+                                                render_seconds=0.0)
+            cycles_samples = cycles_engine.samples_for_budget(scene, seconds, seed=2)
+        else:
+            reference = cycles_engine.render_once(scene, samples=reference_spp, seed=1000, scratch=scratch)
+            _store_reference(reference.image, cached)
+            cycles_samples = max(1, int(seconds / (reference.render_seconds / reference_spp)))
+        cycles_run = cycles_engine.render_once(scene, samples=cycles_samples, seed=1, scratch=scratch)
     raw_c = metrics.relmse(cycles_run.image, reference.image)
     reference_share = raw_c * cycles_run.samples / (cycles_run.samples + reference_spp)
     means_r = metrics.rgb(reference.image).mean(axis=(0, 1))
@@ -92,3 +106,27 @@ def equal_time_rows(name: str, scene, native_scenes: dict, seconds: float, refer
                                    raw_c - reference_share, reference_spp, means_v / np.maximum(means_r, 1e-30),
                                    lookups, means_r)
     return rows
+
+
+def _reference_path(native_scene, reference_spp: int, scratch) -> Path:
+    """Where the reference of this scene (as VolPath exports it: geometry, materials, media, lights,
+    camera, film, bounce limits), sample count and Blender version is kept."""
+    import bpy
+    from volpath_native.scene_io import save_scene
+
+    saved = save_scene(native_scene, Path(scratch) / "reference_key.vpscene")
+    digest = hashlib.sha256(json.dumps([reference_spp, bpy.app.version_string]).encode())
+    with np.load(saved) as arrays:  # the arrays, not the zip file (its entries carry the time of writing)
+        for name in sorted(arrays.files):
+            digest.update(name.encode())
+            digest.update(np.ascontiguousarray(arrays[name]).tobytes())
+    return REFERENCE_CACHE / f"{digest.hexdigest()[:24]}.exr"
+
+
+def _store_reference(image, path: Path) -> None:
+    from volpath_native import imageio
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_suffix(".partial.exr")
+    imageio.write_exr(partial, image)
+    partial.replace(path)
