@@ -41,13 +41,15 @@ def new_hit_buffers(capacity: int) -> HitBuffers:
 
 
 @stage_kernel
-def _ray_times(E, H, fields, column, m):
-    """Shutter times of rays 0..m-1 in Embree's float32 (an empty array when nothing moves)."""
+def _fill_ray_times(E, H, fields, column, m):
+    """H.times[:m] = shutter times of rays 0..m-1 in Embree's float32; returns how many rays
+    carry a time (0 when nothing moves: Embree traces them at time 0). Kernels without the
+    reference-counting runtime cannot return array views, hence the count."""
     if not E.has_motion:
-        return H.times[:0]
+        return 0
     for i in range(m):
         H.times[i] = np.float32(fields[i, column])
-    return H.times[:m]
+    return m
 
 
 @stage_kernel
@@ -63,8 +65,9 @@ def closest_hits(E, H, o32, d32, t32, m, fields, time_column):
             H.prim[i] = -1
             H.inst[i] = -1
         return
-    intersect_rays(E.scene, H.rayhit, o32[:m], d32[:m], t32[:m], _ray_times(E, H, fields, time_column, m),
-                   E.geom_base, E.inst_base, E.inst_index, H.t[:m], H.prim[:m], H.inst[:m], H.u[:m], H.v[:m])
+    timed = _fill_ray_times(E, H, fields, time_column, m)
+    intersect_rays(E.scene, H.rayhit, o32[:m], d32[:m], t32[:m], H.times[:timed], E.geom_base, E.inst_base,
+                   E.inst_index, H.t[:m], H.prim[:m], H.inst[:m], H.u[:m], H.v[:m])
 
 
 @stage_kernel
@@ -73,8 +76,8 @@ def _occluded(E, H, Q, m):
         for i in range(m):
             H.blocked[i] = False
         return
-    occluded_rays(E.scene, H.rayhit, Q.o32[:m], Q.d32[:m], Q.t32[:m], _ray_times(E, H, Q.F, pk.S_TIME, m),
-                  H.blocked[:m])
+    timed = _fill_ray_times(E, H, Q.F, pk.S_TIME, m)
+    occluded_rays(E.scene, H.rayhit, Q.o32[:m], Q.d32[:m], Q.t32[:m], H.times[:timed], H.blocked[:m])
 
 
 @stage_kernel
