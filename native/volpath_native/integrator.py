@@ -4,9 +4,11 @@ Each iteration runs the stages of pbrt-v4's wavefront integrator (src/pbrt/wavef
 integrator.cpp) over the whole batch of live paths: closest hit (Embree, in bulk) -> the path
 stage (medium segment with emission, next-event estimation and free flight; lamps crossed;
 escaped rays; volume scattering or surface interaction), which queues shadow rays -> shadow rays
-(Embree, in bulk, stepping through null boundaries) -> compaction. The per-path arithmetic of the
-stages is compiled (path_kernels.py, numba); this module owns the buffers and the Embree queries.
-The estimators and their references are listed in path_kernels.py.
+(Embree, in bulk, stepping through null boundaries) -> compaction. The stages are compiled
+(path_kernels.py, numba) and a batch runs them all in one compiled call (wavefront.py); this
+module owns the scene tables, the buffers and the camera rays of a batch, and keeps the same loop
+stage by stage from Python for profiling. The estimators and their references are listed in
+path_kernels.py.
 """
 from __future__ import annotations
 
