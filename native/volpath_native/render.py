@@ -88,7 +88,7 @@ class _Film:
 def _accumulate(total, total_sq, count, pixel, values, lo, hi):
     """count / total / total_sq[lo:hi] += each pixel's sample count, sum and sum of squares over
     the chunk: the chunk's sums first, then added, as the np.bincount passes this replaced (the
-    same floats; one pass instead of seven, ~20x faster on a 2304-path chunk)."""
+    same floats; one pass instead of seven: Film.add 59 -> 40 us on a 2304-path chunk)."""
     chunk = np.zeros((hi - lo, 7))
     for i in range(pixel.shape[0]):
         j = pixel[i] - lo
