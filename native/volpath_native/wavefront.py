@@ -1,13 +1,13 @@
 """One batch's wavefront loop as a single compiled call: closest hits (Embree) -> the path stage
 -> shadow rays -> compaction, repeated until no path lives. The stages are path_kernels' own,
-called in the order integrator.Integrator.render_paths_stepwise calls them from Python; the image
-is the same, bit for bit (tests/native/test_wavefront.py).
+called in the order Integrator.render_paths(stepwise=True) calls them from Python; the image is
+the same, bit for bit (tests/native/test_wavefront.py).
 
 Why: every call from Python into a kernel unboxes each array of the table tuples it is given
 (scene, lights, grids, BSDF and surface-program tables: hundreds of arrays), ~40 us a call. A
 batch of a few thousand paths runs ~25 iterations (a long tail of few paths) and each shadow
 step through a null boundary was another call, so on the equal-time scenes the dispatches were a
-quarter of the render (README, Performance, session 10). Here they are calls between compiled
+quarter of the render (README, "Session 10, speed per sample"). Here they are calls between compiled
 functions, which pass the tuples without unboxing; the GIL is released for the whole batch.
 pbrt-v4's wavefront integrator (src/pbrt/wavefront/integrator.cpp, Render) likewise loops over its
 stages without returning to the host per stage.
