@@ -48,14 +48,16 @@ def _many_lights(tree=True):
 
 
 def _apart():
-    """Three lamps far apart and the sky: leaves of one emitter, which the selection takes without
-    weighing them again (light_tree.tree_select / tree_pdf)."""
+    """Four lamps far apart: leaves of one emitter, which the selection takes without weighing them
+    again (light_tree.tree_select / tree_pdf). The constant sky beside them is no next-event light
+    (Cycles disables such a background light, lights.LightSet) and so holds no leaf."""
     floor = Mesh("floor", np.array([[-5, -5, 0], [5, -5, 0], [5, 5, 0], [-5, 5, 0]], float),
                  np.array([[0, 1, 2], [0, 2, 3]]), np.array([0, 0]))
     lights = [SpotLight("spot", [-3, 0, 2.5], [400.0] * 3, direction=[0.3, 0, -1], spot_size=np.radians(50),
                         spot_blend=0.3),
               PointLight("point", [3, 0, 2], [150.0] * 3),
-              AreaLight("area", [0, 3, 2.5], [0.8, 0, 0], [0, 0, -0.6], [200.0] * 3)]  # facing -y
+              AreaLight("area", [0, 3, 2.5], [0.8, 0, 0], [0, 0, -0.6], [200.0] * 3),  # facing -y
+              PointLight("near", [0, -3, 2.2], [60.0] * 3)]
     scene = Scene(camera=Camera(np.eye(4)), film=tiny_box_film(4), meshes=[floor],
                   materials=[Material("floor", base_color=0.5)], lights=lights,
                   world=World(background=[0.3, 0.4, 0.5]), settings=RenderSettings(samples=1))
@@ -68,8 +70,10 @@ def lights(request):
 
 
 def test_leaves_of_one_emitter_are_exercised():
-    """The 'apart' lights put every lamp and the sky in a leaf of its own (the shortcut path)."""
-    tree = _apart().tree
+    """The 'apart' lights put every lamp in a leaf of its own (the shortcut path); the sky has none."""
+    lights = _apart()
+    tree = lights.tree
+    assert lights.tree.leaf_of_row[lights.world_row] == -1
     from volpath_native.light_tree import N_COUNT
     counts = tree.node_i[:, N_COUNT]
     assert np.count_nonzero(counts == 1) == 4, counts
