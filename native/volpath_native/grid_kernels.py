@@ -243,6 +243,23 @@ def _next_crossing(nx, ny, nz):
     return 2, nz
 
 
+@inline_stage_kernel
+def _step_cell(axis, cx, cy, cz, nx, ny, nz, sx, sy, sz, ex, ey, ez, rx, ry, rz):
+    """The DDA's move into the next majorant cell across `axis`: (cell (3), next crossings (3),
+    whether it left the grid)."""
+    if axis == 0:
+        cx += sx
+        nx += ex
+        return cx, cy, cz, nx, ny, nz, cx < 0 or cx >= rx
+    if axis == 1:
+        cy += sy
+        ny += ey
+        return cx, cy, cz, nx, ny, nz, cy < 0 or cy >= ry
+    cz += sz
+    nz += ez
+    return cx, cy, cz, nx, ny, nz, cz < 0 or cz >= rz
+
+
 @stage_kernel
 def _dda_start(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
     """DDA state of a ray on [t_min, t_max] in majorant-cell coordinates: (active, t, t_exit,
@@ -310,18 +327,8 @@ def grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, target, t_q
         depth, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
             t, cell_end, sigma, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
         t = cell_end
-        if axis == 0:
-            cx += sx
-            nx += ex
-            left = cx < 0 or cx >= rx
-        elif axis == 1:
-            cy += sy
-            ny += ey
-            left = cy < 0 or cy >= ry
-        else:
-            cz += sz
-            nz += ez
-            left = cz < 0 or cz >= rz
+        cx, cy, cz, nx, ny, nz, left = _step_cell(axis, cx, cy, cz, nx, ny, nz, sx, sy, sz, ex, ey, ez,
+                                                    rx, ry, rz)
         active = not (left or crossing >= t_exit)
     depth, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
         t_exit, t_end, sigma_extra, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
@@ -489,18 +496,8 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                     return t_max, False, 0.0, 0.0, 0.0, er, eg, eb
         else:  # step into the next cell along the nearest crossing (pbrt-v4 Next())
             t = cell_end
-            if axis == 0:
-                cx += sx
-                nx += ex
-                left = cx < 0 or cx >= rx
-            elif axis == 1:
-                cy += sy
-                ny += ey
-                left = cy < 0 or cy >= ry
-            else:
-                cz += sz
-                nz += ez
-                left = cz < 0 or cz >= rz
+            cx, cy, cz, nx, ny, nz, left = _step_cell(axis, cx, cy, cz, nx, ny, nz, sx, sy, sz, ex, ey, ez,
+                                                        rx, ry, rz)
             active = not (left or crossing >= t_exit)
     if mode == 1:
         wr, wg, wb = wr * np.exp(-cr), wg * np.exp(-cg), wb * np.exp(-cb)
@@ -601,18 +598,8 @@ def dda_cells1(G, ox, oy, oz, dx, dy, dz, t_min, t_max, cells, spans):
         spans[count, 0], spans[count, 1] = t, cell_end
         count += 1
         t = cell_end
-        if axis == 0:
-            cx += sx
-            nx += ex
-            left = cx < 0 or cx >= G.cell_shape[0]
-        elif axis == 1:
-            cy += sy
-            ny += ey
-            left = cy < 0 or cy >= G.cell_shape[1]
-        else:
-            cz += sz
-            nz += ez
-            left = cz < 0 or cz >= G.cell_shape[2]
+        cx, cy, cz, nx, ny, nz, left = _step_cell(axis, cx, cy, cz, nx, ny, nz, sx, sy, sz, ex, ey, ez,
+                                                    G.cell_shape[0], G.cell_shape[1], G.cell_shape[2])
         active = not (left or crossing >= t_exit)
     return count
 

@@ -38,8 +38,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .grid_kernels import (FLAG_BUDGET, FLAG_LOOKUPS, TRACKING_BUDGET, _dda_start, _next_crossing, _to_index,
-                           grid_coefficients)
+from .grid_kernels import (FLAG_BUDGET, FLAG_LOOKUPS, TRACKING_BUDGET, _dda_start, _next_crossing, _step_cell,
+                           _to_index, grid_coefficients)
 from .jit import inline_stage_kernel, stage_kernel
 from .sampling import uniform1
 
@@ -167,18 +167,8 @@ def _transmittance(G, ox, oy, oz, dx, dy, dz, t_max, key, stream, debias):
         lo = min(lo, G.extrema[cx, cy, cz, 0])
         hi = max(hi, G.extrema[cx, cy, cz, 1])
         t = cell_end
-        if axis == 0:
-            cx += sx
-            nx += ex
-            left = cx < 0 or cx >= rx
-        elif axis == 1:
-            cy += sy
-            ny += ey
-            left = cy < 0 or cy >= ry
-        else:
-            cz += sz
-            nz += ez
-            left = cz < 0 or cz >= rz
+        cx, cy, cz, nx, ny, nz, left = _step_cell(axis, cx, cy, cz, nx, ny, nz, sx, sy, sz, ex, ey, ez,
+                                                    rx, ry, rz)
         active = not (left or crossing >= t_exit)
         extinction_range = max(hi - lo, 0.0)
         if active and extinction_range * (t - seg_start) < 1.0:

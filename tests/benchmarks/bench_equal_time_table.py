@@ -116,14 +116,8 @@ def main(argv=None) -> int:
         return cpu_per_sample(args, volpath_engine)
     pixels = args.resolution ** 2
     table = []
-    for name in (list(ROWS) if args.rows == "all" else args.rows.split(",")):
-        build, tweak = ROWS[name]
-        with tempfile.TemporaryDirectory(prefix=f"volpath_bench_{name}_") as tmp:
-            scene = build(args.resolution, Path(tmp))
-            if tweak:
-                tweak(scene)
-            native_scene, _ = volpath_engine.export(scene)
-            row = equal_time_row(name, scene, native_scene, args.seconds, args.reference_spp, Path(tmp))
+    for name, scene, native_scene, tmp in row_scenes(args, volpath_engine):
+        row = equal_time_row(name, scene, native_scene, args.seconds, args.reference_spp, tmp)
         print(*row.lines(pixels), sep="\n", flush=True)
         mitsuba_cell = "-"
         if with_mitsuba:
@@ -149,10 +143,9 @@ def main(argv=None) -> int:
     return 0
 
 
-def cpu_per_sample(args, volpath_engine) -> int:
-    import time
-    from volpath_native.render import render
-
+def row_scenes(args, volpath_engine):
+    """(name, Blender scene, exported scene, scratch folder) of each row asked for, the folder
+    alive until the next row."""
     for name in (list(ROWS) if args.rows == "all" else args.rows.split(",")):
         build, tweak = ROWS[name]
         with tempfile.TemporaryDirectory(prefix=f"volpath_bench_{name}_") as tmp:
@@ -160,6 +153,14 @@ def cpu_per_sample(args, volpath_engine) -> int:
             if tweak:
                 tweak(scene)
             native_scene, _ = volpath_engine.export(scene)
+            yield name, scene, native_scene, Path(tmp)
+
+
+def cpu_per_sample(args, volpath_engine) -> int:
+    import time
+    from volpath_native.render import render
+
+    for name, _, native_scene, _ in row_scenes(args, volpath_engine):
         settings = native_scene.settings
         pixels = native_scene.film.width * native_scene.film.height
         settings.samples, settings.threads, settings.batch_size, settings.seed = args.cpu_per_sample, 1, pixels, 1
