@@ -234,19 +234,25 @@ def render_shutter_stills(scene, *, stills: int, samples: int, seed: int) -> Cyc
                      render_seconds=sum(r.render_seconds for r in runs))
 
 
-def samples_for_budget(scene, seconds: float, seed: int) -> int:
+def samples_for_budget(scene, seconds: float, seed: int, count_setup: bool = True) -> int:
     """Samples per pixel one Cycles render of `scene` fits into `seconds` of wall clock
-    (inside matched_settings): cost per sample from a pilot render, minus its fixed overhead."""
+    (inside matched_settings): cost per sample from a pilot render. count_setup: the budget is the
+    whole render's (the pilot's fixed overhead -- sync, BVH, volume octree -- comes off it, the
+    comparison tool's equal time); else it is the sampling time alone (the benchmarks' sample
+    efficiency, where a setup longer than the budget would leave Cycles one sample)."""
     pilot_samples = PILOT_SAMPLES
     while True:
         pilot = render_once(scene, samples=pilot_samples, seed=seed)
-        render_seconds = pilot.render_seconds if pilot.render_seconds > 0 else pilot.seconds
-        # Cycles stamps times in 1/100 s: grow the pilot until its time is well resolved.
+        # Cycles stamps times in 1/100 s (a fast pilot reads 0.00): grow the pilot until its time
+        # is well resolved. Only without a stamp does the whole call (setup included) stand in.
+        render_seconds = pilot.render_seconds
         if render_seconds >= min(0.5, seconds / 4) or pilot_samples >= 4096:
             break
         pilot_samples *= 4
+    if render_seconds <= 0:
+        render_seconds = pilot.seconds
     per_sample = max(render_seconds / pilot_samples, 1e-6)
-    overhead = max(pilot.seconds - render_seconds, 0.0)
+    overhead = max(pilot.seconds - render_seconds, 0.0) if count_setup else 0.0
     return max(1, int((seconds - overhead) / per_sample))
 
 

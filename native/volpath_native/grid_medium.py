@@ -289,19 +289,14 @@ class GridMedium:
         self.extinction_extrema = np.stack([self.minorant_rgb.min(axis=-1), self.majorant_rgb.max(axis=-1)], axis=-1)
         # Scalar majorant (max channel), as Cycles: one free-flight distribution for all channels.
         majorant = self.majorant_rgb.max(axis=-1)
-        emissive = np.zeros(majorant.shape, dtype=bool)
-        if np.any(self.emission != 0):
-            emissive[:] = True
+        # Emission is collected at tentative collisions (E / majorant each): as Cycles, the
+        # majorant is the larger of extinction and emission (C5 kernel/bake/bake.h
+        # kernel_volume_density_evaluate: max(maxchan sigma_t, maxchan emission)), a bound here
+        # (the constant part plus the grid's cell maximum). Extra null collisions only: unbiased.
+        glow = np.full(majorant.shape, float(np.abs(self.emission).max()))
         if self.emission_grid is not None:
-            emissive |= cell_max(np.abs(self.emission_grid).max(axis=-1)) > 0
-        if emissive.any():
-            # Emission is collected at tentative collisions; where the medium is (nearly) empty but
-            # glows, a floor on the majorant (only extra null collisions: unbiased) gives a few
-            # collisions per 1/16 of the box (per cell crossing of a 16^3 grid, whatever the
-            # resolution: finer cells bound the density tighter, they need no more collisions).
-            world_cell = np.linalg.norm(self.index_to_world[:3, :3] * self.cell_size[None, :], axis=0).min()
-            cells_per_16th = max(float(self.majorant_shape.max()) / 16.0, 1.0)
-            majorant = np.where(emissive, np.maximum(majorant, 4.0 / (world_cell * cells_per_16th)), majorant)
+            glow = glow + cell_max(np.abs(self.emission_grid).max(axis=-1))
+        majorant = np.maximum(majorant, glow)
         self.majorant_grid = majorant.astype(np.float64)
 
     # ------------------------------------------------------------------------------------------

@@ -40,6 +40,9 @@ MAJORANT_MARGIN = 1.25
 #: every cell's majorant is at least this fraction of the medium's largest sampled extinction,
 #: so features the sampling missed are still reached by collisions (unbiased, see the docstring)
 MAJORANT_FLOOR = 1e-3
+#: a glowing cell's majorant is at least its sampled emission (max channel, per metre) times this
+#: (1: Cycles' rule; the emission estimate's variance falls as 1 / this, its cost rises with it)
+EMISSION_MAJORANT_SCALE = 1.0
 #: residual ratio tracking (shadow rays): the control is the middle of the cell's sampled range
 #: per channel, the rate its largest half width x this margin. A larger rate takes more lookups
 #: but lowers the variance (exponent: integral of (sigma_t - control)^2 / rate); measured on the
@@ -209,12 +212,13 @@ class ProgramMedium(GridMedium):
         self.invalid_evaluations = int(bad[0])
         dilated = _neighbourhood(max_extinction, np.maximum)
         peak = float(dilated.max())
-        majorant = np.maximum(dilated * MAJORANT_MARGIN, MAJORANT_FLOOR * peak)
-        emissive = max_emission > 0.0
-        if emissive.any():
-            # emission is collected at tentative collisions: a few per cell crossing where it glows
-            world_cell = np.linalg.norm(self.index_to_world[:3, :3] * cells[None, :], axis=0).min()
-            majorant = np.where(emissive, np.maximum(majorant, 4.0 / world_cell), majorant)
+        # Emission is collected at tentative collisions (E / majorant each): as Cycles, the bound
+        # is the larger of extinction and emission (C5 kernel/bake/bake.h
+        # kernel_volume_density_evaluate: max(maxchan sigma_t, maxchan emission)), so a cell
+        # glowing at E takes ~E collisions per metre and a faint one few.
+        glow = _neighbourhood(max_emission, np.maximum) * EMISSION_MAJORANT_SCALE
+        peak_any = max(peak, float(glow.max()))
+        majorant = np.maximum(np.maximum(dilated, glow) * MAJORANT_MARGIN, MAJORANT_FLOOR * peak_any)
         self.majorant_shape = np.array(shape, dtype=np.int64)
         self.cell_size = cells
         self.majorant_grid = majorant.astype(np.float64)

@@ -82,7 +82,7 @@ def equal_time_rows(name: str, scene, native_scenes: dict, seconds: float, refer
             from volpath_native import imageio
             reference = cycles_engine.CyclesRun(image=imageio.read_exr(cached), samples=reference_spp, seconds=0.0,
                                                 render_seconds=0.0)
-            cycles_samples = cycles_engine.samples_for_budget(scene, seconds, seed=2)
+            cycles_samples = cycles_engine.samples_for_budget(scene, seconds, seed=2, count_setup=False)
         else:
             reference = cycles_engine.render_once(scene, samples=reference_spp, seed=1000, scratch=scratch)
             _store_reference(reference.image, cached)
