@@ -260,7 +260,7 @@ def test_emission_along_a_constant_grid_integrates_analytically():
 
 
 def test_emission_grid_in_empty_space_is_still_collected():
-    """Glow where the density is zero: the emission floor on the majorant finds it."""
+    """Glow where the density is zero: the majorant bounds emission too, so collisions find it."""
     n = 8
     glow = np.zeros((n, n, n, 3), np.float32)
     glow[...] = [0.0, 1.0, 0.0]

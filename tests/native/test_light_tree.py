@@ -73,7 +73,7 @@ def test_leaves_of_one_emitter_are_exercised():
     """The 'apart' lights put every lamp in a leaf of its own (the shortcut path); the sky has none."""
     lights = _apart()
     tree = lights.tree
-    assert lights.tree.leaf_of_row[lights.world_row] == -1
+    assert tree.leaf_of_row[lights.world_row] == -1
     from volpath_native.light_tree import N_COUNT
     counts = tree.node_i[:, N_COUNT]
     assert np.count_nonzero(counts == 1) == 4, counts
