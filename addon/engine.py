@@ -70,8 +70,13 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         total = scene.settings.samples
         self.update_stats("", f"VolPath | exported in {export_seconds:.2f} s | rendering")
 
+        time_limit = scene.settings.time_limit
+
         def progress(done, samples_total, stats):
-            self.update_progress(done / max(samples_total, 1))
+            fraction = done / max(samples_total, 1)
+            if time_limit > 0.0:  # whichever of the two ends the render first
+                fraction = max(fraction, stats.get("seconds", 0.0) / time_limit)
+            self.update_progress(min(fraction, 1.0))
             rays = stats.get("rays_per_second", 0.0)
             self.update_stats("", f"VolPath | Sample {done}/{samples_total} | "
                                   f"{stats.get('seconds', 0.0):.1f} s | {rays / 1e6:.2f} M rays/s")

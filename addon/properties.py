@@ -3,12 +3,16 @@ do (intern/cycles/kernel/integrator/path_state.h) and default to the Cycles add-
 from __future__ import annotations
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, IntProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 
 
 class VolpathRenderSettings(bpy.types.PropertyGroup):
     samples: IntProperty(name="Samples", description="Samples per pixel", default=64, min=1,
                          soft_max=4096, max=1 << 20)
+    time_limit: FloatProperty(
+        name="Time Limit", default=0.0, min=0.0, unit="TIME_ABSOLUTE",
+        description="Stop rendering after this many seconds, or at the sample count if that comes first "
+                    "(scene export and kernel loading not counted, as Cycles' Time Limit). 0: no limit")
     seed: IntProperty(name="Seed", description="Seed of the random sequences (fixed seed: same image)",
                       default=0, min=0)
     use_animated_seed: BoolProperty(name="Animated Seed", default=False,

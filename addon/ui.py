@@ -94,6 +94,7 @@ class VOLPATH_PT_render(VolpathPanel, bpy.types.Panel):
             layout.label(text=status[0], icon=status[1])
         col = layout.column(align=True)
         col.prop(settings, "samples")
+        col.prop(settings, "time_limit")
         col.prop(settings, "seed")
         col.prop(settings, "use_animated_seed")
         layout.prop(settings, "use_light_tree")

@@ -69,31 +69,20 @@ def render_runs(native_scene, *, runs: int, samples: int, base_seed: int, time_l
     from volpath_native.render import render
 
     settings = native_scene.settings
-    original = (settings.samples, settings.seed, settings.batch_size)
-    if time_limit > 0:
-        # The renderer stops only between rounds of about threads x batch_size paths; on a small
-        # image that can be hundreds of samples per pixel. Batches of one pass over the image keep
-        # each round short enough for the clock to be honoured.
-        pixels = native_scene.film.width * native_scene.film.height
-        settings.batch_size = int(max(1024, min(settings.batch_size, pixels)))
+    original = (settings.samples, settings.seed, settings.time_limit)
     results = []
     try:
         for k in range(runs):
             settings.seed = int(base_seed + k)
             settings.samples = EQUAL_TIME_SAMPLE_CAP if time_limit > 0 else int(samples)
+            # the renderer's own time limit sizes its rounds to the time left (round_schedule.py)
+            settings.time_limit = float(time_limit)
             start = time.perf_counter()
-            deadline = start + time_limit if time_limit > 0 else None
-            rounds_done = [0]
 
             def should_stop() -> bool:
-                if cancel is not None and cancel():
-                    return True
-                # The clock only stops a run that has at least one complete round: a run of zero
-                # samples has no image (it overshoots the budget by at most one round, reported).
-                return deadline is not None and rounds_done[0] > 0 and time.perf_counter() >= deadline
+                return cancel is not None and cancel()
 
             def run_progress(done, total, stats, k=k, start=start):
-                rounds_done[0] = done
                 if progress:
                     fraction = (time.perf_counter() - start) / time_limit if time_limit > 0 else done / max(total, 1)
                     progress(k + min(fraction, 1.0), runs)
@@ -110,5 +99,5 @@ def render_runs(native_scene, *, runs: int, samples: int, base_seed: int, time_l
             if progress:
                 progress(k + 1, runs)
     finally:
-        settings.samples, settings.seed, settings.batch_size = original
+        settings.samples, settings.seed, settings.time_limit = original
     return results

@@ -295,4 +295,5 @@ def export_settings(scene) -> vp.RenderSettings:
         russian_roulette_min_bounces=props.min_bounces_russian_roulette,
         batch_size=props.batch_size,
         threads=props.threads,
+        time_limit=float(getattr(props, "time_limit", 0.0)),
     )

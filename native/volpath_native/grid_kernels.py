@@ -341,21 +341,29 @@ NEE_UNIFORM_SHARE = 0.1
 
 
 @stage_kernel
-def grid_nee_distance_sample(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, u_choice, u_t):
-    """A distance on [0, t_end] (finite) for a next-event vertex: from the truncated distribution
-    sigma_c exp(-control depth) (grid_control_walk) or, with NEE_UNIFORM_SHARE, uniform. Its
-    density is grid_nee_distance_pdf."""
+def grid_nee_distance_sample_pdf(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, u_choice, u_t):
+    """A distance on [0, t_end] (finite) for a next-event vertex and its density: from the truncated
+    distribution sigma_c exp(-control depth) (grid_control_walk) or, with NEE_UNIFORM_SHARE,
+    uniform; grid_nee_distance_pdf gives the same density at any t. Two walks: the one that finds
+    the distance also gives the control depth (the target) and extinction there."""
     total = grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, np.inf, -1.0)[0]
-    share = NEE_UNIFORM_SHARE if total > 0.0 else 1.0
-    if u_choice < share:
-        return u_t * t_end
-    target = -np.log1p(u_t * np.expm1(-total))
-    return grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, target, -1.0)[2]
+    if not total > 0.0:
+        return u_t * t_end, 1.0 / t_end
+    if u_choice < NEE_UNIFORM_SHARE:
+        t = u_t * t_end
+        _, _, _, _, depth, sigma = grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, np.inf, t)
+    else:
+        depth = -np.log1p(u_t * np.expm1(-total))
+        _, found, t, sigma, _, _ = grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, depth, -1.0)
+        if not found:  # rounding put the target past the segment's depth: t_end, as the sampler does
+            t = t_end
+            _, _, _, _, depth, sigma = grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, np.inf, t)
+    return t, NEE_UNIFORM_SHARE / t_end + (1.0 - NEE_UNIFORM_SHARE) * sigma * np.exp(-depth) / -np.expm1(-total)
 
 
 @stage_kernel
 def grid_nee_distance_pdf(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, t):
-    """Density of grid_nee_distance_sample at t."""
+    """Density of grid_nee_distance_sample_pdf's distances at t."""
     total, _, _, _, depth, sigma = grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, np.inf, t)
     if not total > 0.0:
         return 1.0 / t_end
@@ -400,20 +408,25 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
     steps = np.int64(0)  # tentative collisions taken
     if active and G.stop[0] != 0:
         return t_max, False, 0.0, 0.0, 0.0, er, eg, eb
+    # Optical depth (in units of the piecewise-constant rate) left before the next tentative
+    # collision: one exponential draw carried across cell boundaries, a new one only after a
+    # collision (exact by memorylessness, as a fresh draw per cell is; it spares the hash and the
+    # log per crossed cell, most of a walk's cost when cells are small and collisions rare).
+    depth_left = -np.log1p(-uniform1(key, np.uint64(stream))) if active else 0.0
+    draws += 1
     while active:
         rate = G.residual_rate[cx, cy, cz] if mode == 1 else G.majorant[cx, cy, cz]
         axis, crossing = _next_crossing(nx, ny, nz)
         cell_end = min(crossing, t_exit)
+        cell_depth = rate * (cell_end - t)
         # the step budget: collisions taken + expected in this cell (`not <=` also stops a NaN rate)
-        if not steps + rate * (cell_end - t) <= TRACKING_BUDGET:
+        if not steps + cell_depth <= TRACKING_BUDGET:
             G.flags[FLAG_BUDGET] += 1
             return t_max, False, 0.0, 0.0, 0.0, er, eg, eb
         if (steps & _STOP_CHECK_MASK) == _STOP_CHECK_MASK and G.stop[0] != 0:
             return t_max, False, 0.0, 0.0, 0.0, er, eg, eb
-        u = uniform1(key, np.uint64(stream) + np.uint64(draws))
-        draws += 1
-        t_candidate = t - np.log1p(-u) / rate if rate > 0.0 else np.inf
-        collided = t_candidate < cell_end
+        collided = depth_left < cell_depth
+        t_candidate = min(t + depth_left / rate, cell_end) if collided else cell_end
         if mode == 1:
             reached = t_candidate if collided else cell_end
             c = G.control
@@ -424,6 +437,8 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
             steps += 1
             G.flags[FLAG_LOOKUPS + mode] += 1
             t = t_candidate
+            depth_left = -np.log1p(-uniform1(key, np.uint64(stream) + np.uint64(draws)))
+            draws += 1
             x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
             ssr, ssg, ssb, str_, stg, stb, emr, emg, emb = grid_coefficients(G, x, y, z)
             if mode == 0:
@@ -495,6 +510,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                 if _ended(G, wr, wg, wb):
                     return t_max, False, 0.0, 0.0, 0.0, er, eg, eb
         else:  # step into the next cell along the nearest crossing (pbrt-v4 Next())
+            depth_left -= cell_depth
             t = cell_end
             cx, cy, cz, nx, ny, nz, left = _step_cell(axis, cx, cy, cz, nx, ny, nz, sx, sy, sz, ex, ey, ez,
                                                         rx, ry, rz)
@@ -606,11 +622,10 @@ def dda_cells1(G, ox, oy, oz, dx, dy, dz, t_min, t_max, cells, spans):
 
 @stage_kernel
 def nee_distance_many(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, u_choice, u_t, t_out, pdf_out):
-    """grid_nee_distance_sample for each (u_choice, u_t) and grid_nee_distance_pdf at each result."""
+    """grid_nee_distance_sample_pdf for each (u_choice, u_t)."""
     for n in range(len(u_t)):
-        t = grid_nee_distance_sample(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, u_choice[n], u_t[n])
-        t_out[n] = t
-        pdf_out[n] = grid_nee_distance_pdf(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, t)
+        t_out[n], pdf_out[n] = grid_nee_distance_sample_pdf(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra,
+                                                            u_choice[n], u_t[n])
 
 
 @stage_kernel

@@ -34,7 +34,7 @@ from .camera import camera_ray1, ray_time1
 from .film import filter_offset1
 from .medium_motion import place_at_time
 from .grid_kernels import (STREAM_DIMENSIONS, grid_attenuation, grid_free_flight, grid_nee_distance_pdf,
-                           grid_nee_distance_sample, grid_scattering, grid_transmittance)
+                           grid_nee_distance_sample_pdf, grid_scattering, grid_transmittance)
 from .jit import inline_stage_kernel, stage_kernel
 from .light_kernels import (TRIANGLE, equiangular_centre, lamp_crossing_unselected, light_has_position,
                             sample_light_selected, triangle_emission_unselected, triangle_sample_barycentrics)
@@ -1018,7 +1018,7 @@ def _first_grid(S, C, p):
 def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q, n_shadow, margin):
     """Next-event vertex per segment for paths inside grid volumes: the distance is drawn by
     equiangular sampling (positional lights) or, on the bounded segment, from the first grid's
-    control extinction (grid_kernels.grid_nee_distance_sample: follows the medium cell by cell, as
+    control extinction (grid_kernels.grid_nee_distance_sample_pdf: follows the medium cell by cell, as
     Cycles' distance-sampled direct scatter does), one-sample MIS of the two; sigma_s and
     transmittance come from the grids (residual ratio tracking)."""
     mode = S.volume_sampling
@@ -1042,14 +1042,16 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
     sigma_extra = (st[0] + st[1] + st[2]) / 3.0
     if u_t >= 1.0 - prob_eq:  # as _medium_nee: one number for the technique and the distance
         t = equiangular_sample1(setup, _rescaled_above(u_t, 1.0 - prob_eq))
-    else:
-        t = grid_nee_distance_sample(G, o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra,
-                                     _u(K, p, iteration, D_MED_TECH), u_t / (1.0 - prob_eq))
-    if not np.isfinite(t):
-        t = 0.0
-    pdf_t = prob_eq * equiangular_pdf1(setup, t)
-    if finite and prob_eq < 1.0:
-        pdf_t += (1.0 - prob_eq) * grid_nee_distance_pdf(G, o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, t)
+        if not np.isfinite(t):
+            t = 0.0
+        pdf_t = prob_eq * equiangular_pdf1(setup, t)
+        if finite and prob_eq < 1.0:
+            pdf_t += (1.0 - prob_eq) * grid_nee_distance_pdf(G, o[0], o[1], o[2], d[0], d[1], d[2], t_end,
+                                                             sigma_extra, t)
+    else:  # (prob_eq < 1 here, so the segment is finite)
+        t, pdf_distance = grid_nee_distance_sample_pdf(G, o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra,
+                                                       _u(K, p, iteration, D_MED_TECH), u_t / (1.0 - prob_eq))
+        pdf_t = prob_eq * equiangular_pdf1(setup, t) + (1.0 - prob_eq) * pdf_distance
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
     x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, sel, o, d,

@@ -15,6 +15,7 @@ import numpy as np
 from .camera import crop_window
 from .integrator import Cancelled, Integrator
 from .jit import kernel
+from .round_schedule import fixed_round_samples, timed_round_samples
 from .scene import Scene, SceneError
 from .scene_schema import check_settings
 from .shading.images import table_nbytes
@@ -156,8 +157,9 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
         warnings.append(f"batch size {batch} would need {batch * threads * PATH_BYTES / 2 ** 30:.3g} GiB of path "
                         f"state; reduced to {batch_limit} (a quarter of this machine's memory)")
         batch = max(256, batch_limit)
-    # A round is at least one sample everywhere and roughly a batch per thread.
-    per_round = max(1, min(st.samples, (threads * batch) // max(n_pix, 1)))
+    per_round = fixed_round_samples(st.samples, threads, batch, n_pix)
+    time_limit = float(st.time_limit)
+    seconds_per_pass = 0.0
     stats = {k: 0 for k in _COUNTERS}
     # image textures, one copy each (shading/images.py)
     stats["texture_images"] = len(scene.images)
@@ -196,9 +198,17 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
             if cancel is not None and not stop.is_set() and cancel():
                 stop_workers()
 
+    trace_start = time.perf_counter()  # the time limit leaves out the set-up above, as Cycles' does
     with executor as pool:
         while done < st.samples and not cancelled:
-            n_smp = min(per_round, st.samples - done)
+            round_start = time.perf_counter()
+            if time_limit > 0.0:
+                n_smp = timed_round_samples(done, st.samples, round_start - trace_start, time_limit, seconds_per_pass,
+                                            threads, batch, n_pix)
+                if n_smp == 0:
+                    break
+            else:
+                n_smp = min(per_round, st.samples - done)
             n_paths = n_pix * n_smp
             # every thread gets work: at least `threads` chunks of near-equal size (a small image
             # would otherwise fit one batch and leave the other threads idle)
@@ -222,6 +232,7 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
                     stats[k] += s[k]
                 budget += s["budget"]
             done += n_smp
+            seconds_per_pass = (time.perf_counter() - round_start) / n_smp
             elapsed = time.perf_counter() - start
             stats.update(seconds=elapsed, samples_per_second=done * n_pix / max(elapsed, 1e-9),
                          rays_per_second=(stats["rays"] + stats["shadow_rays"]) / max(elapsed, 1e-9),

@@ -774,6 +774,9 @@ class RenderSettings:
     russian_roulette_min_bounces: int = 3
     batch_size: int = 1 << 16
     threads: int = 0  # 0: all cores
+    # seconds of rendering after which no further round starts (0: none), Cycles' Time Limit
+    # (render_scheduler.cpp: scene synchronisation left out, the samples still cap the render)
+    time_limit: float = 0.0
     # 'threads' (default; safe inside Blender) or 'processes' (forked workers, Linux/macOS; numpy's
     # Python-level overhead holds the GIL, so processes scale better outside Blender).
     parallelism: str = "threads"

@@ -51,7 +51,7 @@ _CHOICES = {
     ("RenderSettings", "volume_sampling"): ("mis", "distance", "equiangular"),
     ("RenderSettings", "parallelism"): ("threads", "processes"),
 }
-# Inclusive integer ranges.
+# Inclusive ranges of numeric fields.
 MAX_BATCH_SIZE = 1 << 24  # the add-on's own limit (addon/properties.py)
 _RANGES = {
     ("Film", "width"): (1, None), ("Film", "height"): (1, None),
@@ -60,6 +60,7 @@ _RANGES = {
     **{("RenderSettings", f"{kind}_bounces"): (0, 1 << 20)
        for kind in ("max", "diffuse", "glossy", "transmission", "volume", "transparent")},
     ("RenderSettings", "russian_roulette_min_bounces"): (0, 1 << 20),
+    ("RenderSettings", "time_limit"): (0.0, None),
     ("Camera", "aperture_blades"): (0, 1 << 16),
 }
 # The header of a grid medium (grid_medium.GridMedium.to_record): field -> (kind, required).

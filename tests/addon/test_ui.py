@@ -29,6 +29,7 @@ def test_settings_defaults_match_cycles():
     settings = bpy.context.scene.volpath
     assert (settings.max_bounces, settings.diffuse_bounces, settings.glossy_bounces,
             settings.transmission_bounces, settings.volume_bounces, settings.transparent_bounces) == (12, 4, 4, 12, 0, 8)
+    assert settings.bl_rna.properties["time_limit"].default == 0.0  # Cycles' Time Limit default: none
 
 
 def test_unregister_removes_everything_and_register_restores_it():

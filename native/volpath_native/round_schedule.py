@@ -1,0 +1,43 @@
+"""How many samples per pixel the next round of a render takes.
+
+Without a time limit a round is a fixed number of passes over the image (about a batch of paths per
+thread). With one, rounds are sized as Cycles' render scheduler sizes its work
+(intern/cycles/integrator/render_scheduler.cpp, get_num_samples_to_path_trace): the first round is
+one sample, which measures the time per pass; later rounds take as many passes as fit a display
+update interval, never more than the time left (guess_display_update_interval_in_seconds caps the
+interval by the remaining render time), and the render stops once the limit is reached
+(check_time_limit_reached). Short rounds on a small image would otherwise spend their time in
+dispatch rather than in paths (measured at 48x48: a round of one pass costs 30 % of the
+throughput on a fast scene).
+"""
+from __future__ import annotations
+
+#: longest round under a time limit: how often the image and the progress bar are updated
+UPDATE_INTERVAL = 1.0
+#: a round under a time limit holds at most this many batches per thread, bounding the memory of
+#: the results held until the round completes
+MAX_BATCHES_PER_ROUND = 16
+
+
+def fixed_round_samples(samples: int, threads: int, batch: int, pixels: int) -> int:
+    """Passes per round without a time limit: at least one, about a batch of paths per thread."""
+    return max(1, min(samples, (threads * batch) // max(pixels, 1)))
+
+
+def timed_round_samples(done: int, samples: int, elapsed: float, time_limit: float, seconds_per_pass: float,
+                        threads: int, batch: int, pixels: int) -> int:
+    """Passes of the next round under `time_limit` seconds (0 when the render should stop), after
+    `done` passes in `elapsed` seconds; seconds_per_pass is the measured cost of one pass (0 before
+    the first round)."""
+    left = samples - done
+    if left <= 0 or (done > 0 and elapsed >= time_limit):
+        return 0
+    if done == 0 or seconds_per_pass <= 0.0:
+        return 1
+    remaining = time_limit - elapsed
+    if remaining < 0.5 * seconds_per_pass:  # the next pass would mostly run past the limit
+        return 0
+    interval = min(UPDATE_INTERVAL, remaining)
+    by_time = max(1, int(interval / seconds_per_pass + 1e-6))  # (0.3 / 0.1 is 2.999...)
+    by_memory = max(1, (MAX_BATCHES_PER_ROUND * threads * batch) // max(pixels, 1))
+    return min(left, by_time, by_memory)
