@@ -242,9 +242,11 @@ def start_paths(S, cam, filter_inverse, seed_key, crop, full_width, pixel, sampl
         lens_u = sample1(key, LENS_U_DIM) if cam.aperture_size > 0.0 else 0.5
         lens_v = sample1(key, LENS_V_DIM) if cam.aperture_size > 0.0 else 0.5
         time = ray_time1(cam, py, sample1(key, SHUTTER_TIME_DIM))
+        # Cycles' raster y grows upwards, VolPath's rows downwards: its filter table is not quite
+        # symmetric (film.py), so the y offset is mirrored to land where Cycles' lands
         origin, direction, tmax, seen = camera_ray1(
             cam, px + 0.5 + filter_offset1(filter_inverse, sample1(key, 0)),
-            py + 0.5 + filter_offset1(filter_inverse, sample1(key, 1)), lens_u, lens_v, time)
+            py + 0.5 - filter_offset1(filter_inverse, sample1(key, 1)), lens_u, lens_v, time)
         alive[p] = seen
         if not seen:
             unseen += 1

@@ -80,6 +80,17 @@ def _write_ply(path: Path, vertices: np.ndarray, triangles: np.ndarray) -> None:
         out.write(faces.tobytes())
 
 
+def _behind(vertices, triangles, gap=1e-4):
+    """The triangles flipped and moved `gap` behind their faces (each with its own corners): a copy
+    in the same plane would hide the front face from camera rays (coincident hits, and the null
+    copy's continuation skips the front one)."""
+    corners = np.asarray(vertices, float)[np.asarray(triangles)]  # (n, 3, 3)
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+    moved = corners[:, ::-1] - gap * normals[:, None, :]
+    return moved.reshape(-1, 3).astype(np.float32), np.arange(3 * len(corners)).reshape(-1, 3)
+
+
 def _bsdf(material) -> dict:
     if material.surface == "null":
         return {"type": "null"}
@@ -233,7 +244,7 @@ def scene_dict(scene, folder: Path, spp: int = 16) -> dict:
                 shape["emitter"] = {"type": "area", "radiance": _rgb(material.emission)}
                 if material.two_sided_emission:  # Mitsuba's area emitters are one-sided: a flipped copy
                     back = folder / f"mesh_{mesh_index}_{int(material_id)}_back.ply"
-                    _write_ply(back, mesh.vertices[used], remapped.reshape(-1, 3)[:, ::-1])
+                    _write_ply(back, *_behind(mesh.vertices[used], remapped.reshape(-1, 3)))
                     result[f"mesh_{mesh_index}_{int(material_id)}_back"] = dict(
                         shape, filename=str(back), bsdf={"type": "null"})
     result.update(_lights(scene, media))
