@@ -50,6 +50,13 @@ def _lights_visible(scene):
             obj.visible_camera = True
 
 
+def _sun_sharp(scene):
+    # Mitsuba's directional light has no angular diameter: a delta sun for every engine
+    for obj in scene.objects:
+        if obj.type == "LIGHT" and obj.data.type == "SUN":
+            obj.data.angle = 0.0
+
+
 def _example(module: str, **kwargs):
     """A row built by examples/<module>.py at the table's resolution."""
     def build(resolution: int, folder: Path):
@@ -76,12 +83,12 @@ ROWS = {
     "chromatic_absorber": (_example("absorbing_medium"), None),
     "dense_fog": (_example("heavy_density"), None),
     "glass_of_liquid": (_example("glass_of_liquid"), None),
-    # heterogeneous media (Mitsuba's column: not translated)
+    # heterogeneous media (Mitsuba's column: density grids only, mitsuba_peer.py)
     "height_fog": (_example("height_fog"), None),
     "noise_cloud": (_example("noise_cloud"), None),
     "procedural_fire": (_example("procedural_fire"), None),
-    "smoke_plume": (_smoke_plume, None),
-    "cloud_128": (_cloud_128, None),
+    "smoke_plume": (_smoke_plume, _sun_sharp),
+    "cloud_128": (_cloud_128, _sun_sharp),
 }
 HOMOGENEOUS_ROWS = ("cornell_point", "cornell_spot", "cornell_area", "sun_godrays", "chromatic_absorber",
                     "dense_fog", "glass_of_liquid")

@@ -6,7 +6,8 @@ see the same geometry, lights and media. Only what both renderers define the sam
 translated; anything else raises Unsupported and the row shows no Mitsuba column:
 - surfaces: Lambertian (Diffuse BSDF with roughness 0, or materials without nodes); volume-only
   (null) boundaries; emissive meshes as one-sided area emitters (Cycles: two-sided).
-- media: homogeneous, one Henyey-Greenstein lobe, no emission.
+- media: homogeneous, one Henyey-Greenstein lobe, no emission; density grids (Volume objects from
+  a .vdb) as a `heterogeneous` medium over a `gridvolume`, without colour or emission grids.
 - lights: point (radius 0; I = P / 4 pi, lights.py), spot (radius 0, blend 0: Mitsuba's falloff is
   linear in angle where Blender's is a smoothstep in cosine), area squares/rectangles (one-sided,
   L = P / (pi A)), sun (angle 0), a constant world.
@@ -103,9 +104,11 @@ def _bsdf(material) -> dict:
     raise Unsupported(f"material '{material.name}': only Lambertian surfaces are translated")
 
 
-def _medium(medium) -> dict:
-    if not getattr(medium, "is_homogeneous", True) or medium.phase_lobes:
-        raise Unsupported(f"medium '{medium.name}': only homogeneous single-lobe media are translated")
+def _medium(medium, folder: Path) -> dict:
+    if not getattr(medium, "is_homogeneous", True):
+        return _grid_medium(medium, folder)
+    if medium.phase_lobes:
+        raise Unsupported(f"medium '{medium.name}': only single-lobe media are translated")
     if np.any(np.asarray(medium.emission) > 0):
         raise Unsupported(f"medium '{medium.name}': emission is not translated")
     sigma_t = np.asarray(medium.sigma_s, float) + np.asarray(medium.sigma_a, float)
@@ -114,6 +117,48 @@ def _medium(medium) -> dict:
     return {"type": "homogeneous", "sigma_t": _rgb(sigma_t / max(scale, 1e-30)), "scale": scale,
             "albedo": _rgb(albedo),
             "phase": {"type": "hg", "g": float(medium.g)}}
+
+
+def _grid_medium(medium, folder: Path) -> dict:
+    """A density grid as Mitsuba's `heterogeneous` medium over a `gridvolume`: sigma_t = density x
+    (sigma_s + sigma_a), a constant albedo. VolPath's voxel i sits at index point i and is
+    interpolated between points; Mitsuba's texture is cell-centred (texel i at (i + 0.5) / n of its
+    unit cube), so the unit cube maps to index space [-0.5, n - 0.5] before index_to_world; the
+    padded grid's zero border makes the clamped edges agree."""
+    from volpath_native.program_medium import ProgramMedium
+
+    if isinstance(medium, ProgramMedium):
+        raise Unsupported(f"medium '{medium.name}': shader-program media are not translated")
+    if medium.scatter_grid is not None or medium.emission_grid is not None or np.any(medium.emission != 0):
+        raise Unsupported(f"medium '{medium.name}': colour and emission grids are not translated")
+    if getattr(medium, "motion", None) is not None:
+        raise Unsupported(f"medium '{medium.name}': moving media are not translated")
+    sigma_t = np.asarray(medium.sigma_s, float) + np.asarray(medium.sigma_a, float)
+    scale = float(sigma_t.max())
+    density = np.asarray(medium.density, np.float32)
+    n = np.array(density.shape, float)
+    texel = np.diag([*n, 1.0])
+    texel[:3, 3] = -0.5
+    path = folder / f"{_safe(medium.name)}.vol"
+    _write_vol(path, density[..., None] * (sigma_t / max(scale, 1e-30)).astype(np.float32))
+    return {"type": "heterogeneous", "scale": scale,
+            "sigma_t": {"type": "gridvolume", "filename": str(path), "raw": True,
+                        "to_world": _transform(np.asarray(medium.index_to_world, float) @ texel)},
+            "albedo": _rgb(np.where(sigma_t > 0, np.asarray(medium.sigma_s, float) / np.maximum(sigma_t, 1e-30), 0.0)),
+            "phase": {"type": "hg", "g": float(medium.g)}}
+
+
+def _safe(name: str) -> str:
+    return "".join(c if c.isalnum() else "_" for c in name)
+
+
+def _write_vol(path: Path, grid) -> None:
+    """Mitsuba's .vol: 'VOL', version 3, float32 encoding, x/y/z resolution, channels, a bounding
+    box (unused: the volume's to_world places it), then data[((z * ny + y) * nx + x) * c + ch]."""
+    nx, ny, nz, channels = grid.shape
+    header = b"VOL" + bytes([3]) + np.array([1, nx, ny, nz, channels], "<i4").tobytes()
+    header += np.array([0, 0, 0, 1, 1, 1], "<f4").tobytes()
+    path.write_bytes(header + np.ascontiguousarray(grid.transpose(2, 1, 0, 3), "<f4").tobytes())
 
 
 def _inside(point, vertices, triangles) -> bool:
@@ -222,7 +267,7 @@ def scene_dict(scene, folder: Path, spp: int = 16) -> dict:
               "integrator": {"type": "volpath", "max_depth": int(settings.max_bounces) + 1,
                              "rr_depth": int(settings.russian_roulette_min_bounces) + 2},
               "sensor": _camera(scene, spp)}
-    media = {index: _medium(m) for index, m in enumerate(scene.media)}
+    media = {index: _medium(m, folder) for index, m in enumerate(scene.media)}
     camera_medium = _medium_at(scene, np.asarray(scene.camera.camera_to_world, float)[:3, 3])
     if camera_medium >= 0:
         result["sensor"]["medium"] = media[camera_medium]
