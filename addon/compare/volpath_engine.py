@@ -79,15 +79,12 @@ def render_runs(native_scene, *, runs: int, samples: int, base_seed: int, time_l
             settings.time_limit = float(time_limit)
             start = time.perf_counter()
 
-            def should_stop() -> bool:
-                return cancel is not None and cancel()
-
             def run_progress(done, total, stats, k=k, start=start):
                 if progress:
                     fraction = (time.perf_counter() - start) / time_limit if time_limit > 0 else done / max(total, 1)
                     progress(k + min(fraction, 1.0), runs)
 
-            result = render(native_scene, cancel=should_stop, progress=run_progress)
+            result = render(native_scene, cancel=cancel, progress=run_progress)
             seconds = time.perf_counter() - start
             if cancel is not None and cancel():
                 raise InterruptedError("comparison cancelled")
