@@ -12,7 +12,7 @@ ones (height fog, noise cloud, procedural fire, smoke plume, 128^3 cloud). The Q
 (a Mantaflow bake: Debian's Blender) stays in bench_fire.py.
 
     python tests/benchmarks/bench_equal_time_table.py [--seconds 10] [--reference-spp 1024] [--resolution 64]
-        [--rows cornell_point,...|all] [--no-mitsuba] [--quick]
+        [--rows cornell_point,...|all] [--no-mitsuba] [--quick] [--seeds N]
     python tests/benchmarks/bench_equal_time_table.py --cpu-per-sample 128 [--rows ...] [--resolution 48]
         (VolPath only: CPU time per camera sample of each row, one thread, a batch of one pass
         over the image as in the equal-time runs; insensitive to other jobs on the machine)
@@ -102,6 +102,9 @@ def main(argv=None) -> int:
     parser.add_argument("--rows", default=",".join(HOMOGENEOUS_ROWS),
                         help=f"comma-separated row names, or 'all' (of {', '.join(ROWS)})")
     parser.add_argument("--no-mitsuba", action="store_true")
+    parser.add_argument("--seeds", type=int, default=1,
+                        help="equal-time runs per row with seeds 1..N (VolPath and Cycles); the table shows "
+                             "each run and the median (rows with heavy-tailed noise swing between seeds)")
     parser.add_argument("--quick", action="store_true", help="32x32, 2 s, reference 128 spp (smoke test)")
     parser.add_argument("--cpu-per-sample", type=int, default=0, metavar="SPP",
                         help="only VolPath's CPU time per camera sample at SPP samples per pixel, one thread")
@@ -124,8 +127,13 @@ def main(argv=None) -> int:
     pixels = args.resolution ** 2
     table = []
     for name, scene, native_scene, tmp in row_scenes(args, volpath_engine):
-        row = equal_time_row(name, scene, native_scene, args.seconds, args.reference_spp, tmp)
-        print(*row.lines(pixels), sep="\n", flush=True)
+        ratios = []
+        for seed in range(1, args.seeds + 1):
+            row = equal_time_row(name, scene, native_scene, args.seconds, args.reference_spp, tmp, seed=seed)
+            print(*row.lines(pixels), sep="\n", flush=True)
+            ratios.append(row.time_ratio)
+        volpath_cell = f"{np.median(ratios):.3g}x" + (
+            f" (runs {', '.join(f'{r:.3g}x' for r in ratios)})" if len(ratios) > 1 else "")
         mitsuba_cell = "-"
         if with_mitsuba:
             try:
@@ -143,7 +151,7 @@ def main(argv=None) -> int:
                       f"{reference.samples}-spp reference {relmse:.4g}; needs {ratio:.3g}x Cycles' time; "
                       "image mean / Cycles reference R/G/B " + " ".join(f"{m:.4f}" for m in mean), flush=True)
                 mitsuba_cell = f"{ratio:.3g}x"
-        table.append((name, f"{row.time_ratio:.3g}x", mitsuba_cell))
+        table.append((name, volpath_cell, mitsuba_cell))
     print("\n| row | VolPath: x Cycles' time | Mitsuba 3: x Cycles' time |\n|---|---|---|")
     for name, volpath_cell, mitsuba_cell in table:
         print(f"| {name} | {volpath_cell} | {mitsuba_cell} |")

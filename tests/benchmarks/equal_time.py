@@ -63,13 +63,14 @@ class EqualTimeRow:
 
 
 def equal_time_row(name: str, scene, native_scene, seconds: float, reference_spp: int, scratch,
-                   resolution=None) -> EqualTimeRow:
-    """resolution: Cycles' render size override (native_scene must have been exported at it)."""
-    return equal_time_rows(name, scene, {"": native_scene}, seconds, reference_spp, scratch, resolution)[""]
+                   resolution=None, seed: int = 1) -> EqualTimeRow:
+    """resolution: Cycles' render size override (native_scene must have been exported at it).
+    seed: both engines' seed for this run (the reference keeps its own)."""
+    return equal_time_rows(name, scene, {"": native_scene}, seconds, reference_spp, scratch, resolution, seed)[""]
 
 
 def equal_time_rows(name: str, scene, native_scenes: dict, seconds: float, reference_spp: int, scratch,
-                    resolution=None) -> dict:
+                    resolution=None, seed: int = 1) -> dict:
     """One row per VolPath variant (label -> native scene, e.g. settings changed), all against
     the same reference and the same Cycles run."""
     from addon.compare import cycles_engine, metrics, volpath_engine
@@ -87,7 +88,7 @@ def equal_time_rows(name: str, scene, native_scenes: dict, seconds: float, refer
             reference = cycles_engine.render_once(scene, samples=reference_spp, seed=1000, scratch=scratch)
             _store_reference(reference.image, cached)
             cycles_samples = max(1, int(seconds / (reference.render_seconds / reference_spp)))
-        cycles_run = cycles_engine.render_once(scene, samples=cycles_samples, seed=1, scratch=scratch)
+        cycles_run = cycles_engine.render_once(scene, samples=cycles_samples, seed=seed, scratch=scratch)
     raw_c = metrics.relmse(cycles_run.image, reference.image)
     reference_share = raw_c * cycles_run.samples / (cycles_run.samples + reference_spp)
     means_r = metrics.rgb(reference.image).mean(axis=(0, 1))
@@ -96,7 +97,8 @@ def equal_time_rows(name: str, scene, native_scenes: dict, seconds: float, refer
         grids = [m for m in native_scene.media if hasattr(m, "lookups")]
         for medium in grids:
             medium.lookups[:] = 0
-        volpath_run = volpath_engine.render_runs(native_scene, runs=1, samples=1, base_seed=1, time_limit=seconds)[0]
+        volpath_run = volpath_engine.render_runs(native_scene, runs=1, samples=1, base_seed=seed,
+                                                 time_limit=seconds)[0]
         samples = volpath_run.samples * volpath_run.image.shape[0] * volpath_run.image.shape[1]
         lookups = sum(m.lookups for m in grids) / samples if grids else None
         raw_v = metrics.relmse(volpath_run.image, reference.image)
