@@ -51,15 +51,7 @@ class PixelFilter:
         else:
             raise SceneError(f"unknown pixel filter '{kind}'")
         self.support = 0.5 * width
-        xs = np.linspace(-self.support, self.support, _PROFILE_SIZE + 1)
-        if func is None:
-            cdf = np.linspace(0.0, 1.0, _PROFILE_SIZE + 1)
-        else:
-            mid = 0.5 * (xs[1:] + xs[:-1])
-            w = np.maximum(func(mid, width), 0.0)
-            cdf = np.concatenate([[0.0], np.cumsum(w)])
-            cdf /= cdf[-1]
-        self._xs, self._cdf = xs, cdf
+        self._xs, self._cdf = profile_cdf(func, width)
         # Offsets from the pixel centre (Cycles' table holds raster offsets from the pixel's corner).
         self.inverse = cycles_filter_table(func, width).astype(np.float64) - 0.5
 
@@ -75,6 +67,17 @@ class PixelFilter:
         dens = np.diff(self._cdf) / np.diff(self._xs)
         idx = np.clip(np.searchsorted(self._xs, x, side="right") - 1, 0, len(dens) - 1)
         return np.where(np.abs(x) <= self.support, dens[idx], 0.0)
+
+
+def profile_cdf(func, width: float):
+    """(xs, cdf): the exact filter profile's CDF on _PROFILE_SIZE intervals over [-width/2, width/2]
+    (midpoint rule; func None: the box filter), for pdf() and tests."""
+    xs = np.linspace(-0.5 * width, 0.5 * width, _PROFILE_SIZE + 1)
+    if func is None:
+        return xs, np.linspace(0.0, 1.0, _PROFILE_SIZE + 1)
+    mid = 0.5 * (xs[1:] + xs[:-1])
+    cdf = np.concatenate([[0.0], np.cumsum(np.maximum(func(mid, width), 0.0))])
+    return xs, cdf / cdf[-1]
 
 
 def cycles_filter_table(func, width: float, size: int = _TABLE_SIZE) -> np.ndarray:

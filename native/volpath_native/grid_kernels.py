@@ -340,6 +340,13 @@ def grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, target, t_q
 NEE_UNIFORM_SHARE = 0.1
 
 
+@inline_stage_kernel
+def _nee_distance_density(t_end, total, depth, sigma):
+    """The next-event distance density at a point whose control depth from the segment's start is
+    `depth` and control extinction `sigma` (total: the whole segment's control depth, > 0)."""
+    return NEE_UNIFORM_SHARE / t_end + (1.0 - NEE_UNIFORM_SHARE) * sigma * np.exp(-depth) / -np.expm1(-total)
+
+
 @stage_kernel
 def grid_nee_distance_sample_pdf(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, u_choice, u_t):
     """A distance on [0, t_end] (finite) for a next-event vertex and its density: from the truncated
@@ -356,9 +363,8 @@ def grid_nee_distance_sample_pdf(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, 
         depth = -np.log1p(u_t * np.expm1(-total))
         _, found, t, sigma, _, _ = grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, depth, -1.0)
         if not found:  # rounding put the target past the segment's depth: t_end, as the sampler does
-            t = t_end
-            _, _, _, _, depth, sigma = grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, np.inf, t)
-    return t, NEE_UNIFORM_SHARE / t_end + (1.0 - NEE_UNIFORM_SHARE) * sigma * np.exp(-depth) / -np.expm1(-total)
+            return t_end, grid_nee_distance_pdf(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, t_end)
+    return t, _nee_distance_density(t_end, total, depth, sigma)
 
 
 @stage_kernel
@@ -367,7 +373,7 @@ def grid_nee_distance_pdf(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, t):
     total, _, _, _, depth, sigma = grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, np.inf, t)
     if not total > 0.0:
         return 1.0 / t_end
-    return NEE_UNIFORM_SHARE / t_end + (1.0 - NEE_UNIFORM_SHARE) * sigma * np.exp(-depth) / -np.expm1(-total)
+    return _nee_distance_density(t_end, total, depth, sigma)
 
 
 @stage_kernel
@@ -382,7 +388,8 @@ def grid_box_interval(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
 @stage_kernel
 def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, bb):
     """Walk the majorant cells of one ray and sample tentative collisions, exponential with the
-    cell's rate and restarted at each boundary (memorylessness keeps it exact; pbrt-v4 SampleT_maj).
+    cells' piecewise-constant rate: one exponential optical depth carried across cell boundaries
+    (pbrt-v4 SampleT_maj draws anew per cell; memorylessness makes the two the same).
 
     mode 0: delta tracking with null collisions (free flight; Cycles' null-scattering weights,
         scatter-vs-null chosen with the throughput (br, bg, bb) x albedo channel pdf:

@@ -79,10 +79,8 @@ def test_an_exact_filter_inverse_disagrees_with_cycles(registered_addon, monkeyp
     from volpath_native import film
 
     def exact_table(func, width, size=film._TABLE_SIZE):
-        xs = np.linspace(-0.5 * width, 0.5 * width, 16385)
-        mid = 0.5 * (xs[1:] + xs[:-1])
-        cdf = np.concatenate([[0.0], np.cumsum(np.maximum(func(mid, width), 0.0))])
-        return (np.interp(np.arange(size) / (size - 1), cdf / cdf[-1], xs) + 0.5).astype(np.float32)
+        xs, cdf = film.profile_cdf(func, width)
+        return (np.interp(np.arange(size) / (size - 1), cdf, xs) + 0.5).astype(np.float32)
 
     monkeypatch.setattr(film, "cycles_filter_table", exact_table)
     volpath, cycles = _renders(_edge_scene("BLACKMAN_HARRIS", 1.5))
