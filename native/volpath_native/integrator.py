@@ -26,6 +26,7 @@ from .bsdfs.nodes import surface_node_table
 from .camera import CameraModel, crop_window
 from .film import PixelFilter
 from .grid_medium import GridMedium
+from .grid_slots import GRID_SLOTS  # the grid tuple is padded to this many (grid_slots.py)
 from .lights import LightSet
 from .media import MediaTable
 from .sampling import seed_key
@@ -304,7 +305,6 @@ class _Buffers:
 
 
 _NO_GRID_TABLES = None
-GRID_SLOTS = 4  # the stage kernels are compiled for a tuple of this many grids (more: a recompile)
 
 
 def _no_grid_tables():

@@ -32,9 +32,9 @@ from .bsdfs.closures import (LABEL_DIFFUSE, LABEL_TRANSMIT, LABEL_TRANSPARENT, s
                              surface_eval, surface_is_transmissive, surface_sample, surface_transparency)
 from .camera import camera_ray1, ray_time1
 from .film import filter_offset1
-from .medium_motion import place_at_time
-from .grid_kernels import (STREAM_DIMENSIONS, grid_attenuation, grid_free_flight, grid_nee_distance_pdf,
-                           grid_nee_distance_sample_pdf, grid_scattering, grid_transmittance)
+from .grid_kernels import STREAM_DIMENSIONS
+from .grid_slots import (slot_attenuation, slot_free_flight, slot_g, slot_nee_distance_pdf,
+                         slot_nee_distance_sample_pdf, slot_scattering, slot_transmittance)
 from .jit import inline_stage_kernel, stage_kernel
 from .light_kernels import (TRIANGLE, equiangular_centre, lamp_crossing_unselected, light_has_position,
                             sample_light_selected, triangle_emission_unselected, triangle_sample_barycentrics)
@@ -163,7 +163,7 @@ def grid_stream(iteration, purpose, step, grid):
     return np.uint64(_STREAM_BASE) + np.uint64(index) * np.uint64(STREAM_DIMENSIONS)
 
 
-@stage_kernel
+@inline_stage_kernel
 def inside_grid(S, C, p):
     if not S.has_grids:
         return False
@@ -173,16 +173,18 @@ def inside_grid(S, C, p):
     return False
 
 
-@stage_kernel
+@inline_stage_kernel
 def grids_transmittance(S, GR, C, p, o, d, dist, key, stream_of, time):
     """Product of ratio-tracking estimates (RGB) over the grid volumes path p's stack is inside,
-    each placed at shutter time `time`; stream_of(grid) -> first dimension (see grid_stream)."""
+    each placed at shutter time `time`; stream_of: the first dimension of grid 0's stream (see
+    grid_stream). Inlined, with grid_slots' constant-index calls: a call taking GR costs more than
+    the tracking (grid_slots.py)."""
     t0 = t1 = t2 = 1.0
     for v in range(S.vol_grid.shape[0]):
         gi = S.vol_grid[v]
         if C[p, v] > 0 and gi >= 0:
-            place_at_time(GR[gi], time)
-            r = grid_transmittance(GR[gi], o[0], o[1], o[2], d[0], d[1], d[2], dist, key, stream_of + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS))
+            r = slot_transmittance(GR, gi, time, o, d, dist, key,
+                                   stream_of + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS))
             t0, t1, t2 = t0 * r[0], t1 * r[1], t2 * r[2]
     return t0, t1, t2
 
@@ -927,8 +929,7 @@ def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st
         for v in range(S.vol_grid.shape[0]):
             gi = S.vol_grid[v]
             if C[p, v] > 0 and gi >= 0:
-                place_at_time(GR[gi], time)
-                w0, w1, w2, e0, e1, e2 = grid_attenuation(GR[gi], o[0], o[1], o[2], d[0], d[1], d[2], t_seg, key,
+                w0, w1, w2, e0, e1, e2 = slot_attenuation(GR, gi, time, o, d, t_seg, key,
                                                           stream0 + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS))
                 _add_radiance(L, pid, _mul3(_mul3(beta_in, w), (e0, e1, e2)))
                 w = _mul3(w, (w0, w1, w2))
@@ -947,18 +948,14 @@ def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st
         gi = S.vol_grid[v]
         if C[p, v] <= 0 or gi < 0:
             continue
-        G = GR[gi]
-        place_at_time(G, time)
-        thr = _mul3(beta, w)
-        t, scattered, w0, w1, w2, e0, e1, e2 = grid_free_flight(
-            G, o[0], o[1], o[2], d[0], d[1], d[2], t_end, key,
-            stream0 + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS), thr[0], thr[1], thr[2])
+        t, scattered, w0, w1, w2, e0, e1, e2 = slot_free_flight(
+            GR, gi, time, o, d, t_end, key, stream0 + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS), _mul3(beta, w))
         _add_radiance(L, pid, _mul3(_mul3(beta_in, w), (e0, e1, e2)))
         w = _mul3(w, (w0, w1, w2))
         if scattered:
             t_end = t
             grid_event = True
-            event_g = G.g
+            event_g = slot_g(GR, gi)
     hom_event = hom and not grid_event and ts < t_seg
     event = grid_event or hom_event
     t_eval = t_end if event else t_seg
@@ -974,7 +971,7 @@ def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st
     return _mul3(_mul3(beta, w), factor), event, (t_eval if event else np.inf), event_g, grid_event
 
 
-@stage_kernel
+@inline_stage_kernel
 def _grid_phase_mixture(S, GR, C, p, x, ss_hom, g_hom, cos_theta, time):
     """Sum of sigma_s HG over every medium scattering at x (homogeneous components and grids) and
     the mixture's pdf (weights: mean sigma_s), as _phase_mixture_eval for grid paths."""
@@ -997,9 +994,8 @@ def _grid_phase_mixture(S, GR, C, p, x, ss_hom, g_hom, cos_theta, time):
         gi = S.vol_grid[v]
         if C[p, v] <= 0 or gi < 0:
             continue
-        place_at_time(GR[gi], time)
-        sk = grid_scattering(GR[gi], x[0], x[1], x[2])
-        ph = hg_eval1(GR[gi].g, cos_theta)
+        sk, gk = slot_scattering(GR, gi, time, x)
+        ph = hg_eval1(gk, cos_theta)
         f0, f1, f2 = f0 + sk[0] * ph, f1 + sk[1] * ph, f2 + sk[2] * ph
         w = (sk[0] + sk[1] + sk[2]) / 3.0
         num += w * ph
@@ -1039,8 +1035,7 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
     centre = equiangular_centre(T, row, _u(K, p, iteration, D_MED_LU), _u(K, p, iteration, D_MED_LV), F[p, TIME])
     setup = equiangular_setup1(o, d, t_lit0, t_lit1, centre)
     u_t = _u(K, p, iteration, D_MED_T)
-    G = GR[_first_grid(S, C, p)]
-    place_at_time(G, F[p, TIME])
+    gi = _first_grid(S, C, p)
     sigma_extra = (st[0] + st[1] + st[2]) / 3.0
     if u_t >= 1.0 - prob_eq:  # as _medium_nee: one number for the technique and the distance
         t = equiangular_sample1(setup, _rescaled_above(u_t, 1.0 - prob_eq))
@@ -1048,10 +1043,9 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
             t = 0.0
         pdf_t = prob_eq * equiangular_pdf1(setup, t)
         if finite and prob_eq < 1.0:
-            pdf_t += (1.0 - prob_eq) * grid_nee_distance_pdf(G, o[0], o[1], o[2], d[0], d[1], d[2], t_end,
-                                                             sigma_extra, t)
+            pdf_t += (1.0 - prob_eq) * slot_nee_distance_pdf(GR, gi, F[p, TIME], o, d, t_end, sigma_extra, t)
     else:  # (prob_eq < 1 here, so the segment is finite)
-        t, pdf_distance = grid_nee_distance_sample_pdf(G, o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra,
+        t, pdf_distance = slot_nee_distance_sample_pdf(GR, gi, F[p, TIME], o, d, t_end, sigma_extra,
                                                        _u(K, p, iteration, D_MED_TECH), u_t / (1.0 - prob_eq))
         pdf_t = prob_eq * equiangular_pdf1(setup, t) + (1.0 - prob_eq) * pdf_distance
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
