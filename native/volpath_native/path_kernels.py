@@ -561,7 +561,7 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
                 wx, wy, wz, pdf = hg_sample1(d[0], d[1], d[2], g, u1, u2)  # phase / pdf == 1
                 wo = (wx, wy, wz)
             if in_grid:  # MIS needs the pdf of the whole phase mixture at x (as grid NEE uses)
-                pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, _dot3(d, wo), F[p, TIME])[1]
+                pdf = _grid_phase_pdf(S, GR, C, p, x, ss, g, _dot3(d, wo), F[p, TIME])
             _scatter_to(S, F, I, p, x, wo, pdf, VOLUME, S.volume_bounces)
             _set_mis_origin(F, I, p, o, d, t_seg, MODE_VOLUME)  # the segment its NEE chose a light for
             alive[p] = _russian_roulette(S, F, I, K, p, iteration)
@@ -1001,6 +1001,21 @@ def _grid_phase_mixture(S, GR, C, p, x, ss_hom, g_hom, cos_theta, time):
         num += w * ph
         den += w
     return (f0, f1, f2), (num / den if den > 0.0 else 0.0)
+
+
+@inline_stage_kernel
+def _grid_phase_pdf(S, GR, C, p, x, ss_hom, g_hom, cos_theta, time):
+    """The pdf of _grid_phase_mixture. With one grid and no other scattering medium on the stack
+    the mixture is that grid's HG lobe alone: no evaluation of its coefficients at x (on shader-program
+    media, a run of the program)."""
+    if not S.mixed_phase and not _max3(ss_hom) > 0.0:
+        only, count = 0, 0
+        for v in range(S.vol_grid.shape[0]):
+            if C[p, v] > 0 and S.vol_grid[v] >= 0:
+                only, count = S.vol_grid[v], count + 1
+        if count == 1:
+            return hg_eval1(slot_g(GR, only), cos_theta)
+    return _grid_phase_mixture(S, GR, C, p, x, ss_hom, g_hom, cos_theta, time)[1]
 
 
 @inline_stage_kernel

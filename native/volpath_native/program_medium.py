@@ -45,6 +45,9 @@ MAJORANT_FLOOR = 1e-3
 #: but lowers the variance (exponent: integral of (sigma_t - control)^2 / rate); measured on the
 #: noise cloud and height fog (tests/benchmarks), relvar x time fell up to a margin of ~4-6.
 RESIDUAL_MARGIN = 4.0
+#: an axis of the majorant grid along which every cell's sampled bounds stay within this fraction of
+#: their own value becomes one cell (_collapse_flat_axes)
+FLAT_AXIS_TOLERANCE = 0.1
 #: ... ranges taken over the cell and its neighbours (True) or the cell alone: measured, the
 #: neighbourhood's middle is a worse control (5-20x the variance on the noise cloud)
 RESIDUAL_DILATION = False
@@ -108,6 +111,26 @@ def _neighbourhood(grid, reduce):
         out = reduce(reduce(np.take(padded, range(0, n), axis=axis), np.take(padded, range(1, n + 1), axis=axis)),
                      np.take(padded, range(2, n + 2), axis=axis))
     return out
+
+
+def _collapse_flat_axes(max_extinction, max_emission, low_rgb, high_rgb):
+    """Merge the majorant cells along each axis where the sampled bounds hardly change along it (a
+    height fog varies only in z): every walk of the grid (free flight, shadow transmittance, the
+    next-event distance) steps through fewer cells. An axis merges when no cell's bounds (largest
+    extinction and emission, each channel's extinction range) move by more than
+    FLAT_AXIS_TOLERANCE x the cell's own largest value (at least MAJORANT_FLOOR of the medium's)."""
+    arrays = [(max_extinction, np.max), (max_emission, np.max), (low_rgb, np.min), (high_rgb, np.max)]
+    for axis in range(3):
+        if max_extinction.shape[axis] == 1:
+            continue
+        scale = np.maximum(arrays[0][0], arrays[1][0])
+        scale = np.maximum(scale, MAJORANT_FLOOR * max(float(scale.max()), 1e-300))
+        merged = [reduce(a, axis=axis, keepdims=True) for a, reduce in arrays]
+        flat = all(np.all(np.abs(m - a) <= FLAT_AXIS_TOLERANCE * (scale if a.ndim == 3 else scale[..., None]))
+                   for m, (a, _) in zip(merged, arrays))
+        if flat:
+            arrays = [(np.ascontiguousarray(m), reduce) for m, (_, reduce) in zip(merged, arrays)]
+    return tuple(a for a, _ in arrays)
 
 
 class ProgramMedium(GridMedium):
@@ -207,6 +230,10 @@ class ProgramMedium(GridMedium):
                       cells, SAMPLES_PER_CELL_AXIS, seed_key(0x5EED), max_extinction, max_emission, low_rgb,
                       high_rgb, bad, self.images)
         self.invalid_evaluations = int(bad[0])
+        max_extinction, max_emission, low_rgb, high_rgb = _collapse_flat_axes(max_extinction, max_emission, low_rgb,
+                                                                             high_rgb)
+        shape = max_extinction.shape
+        cells = extent / np.array(shape, dtype=np.float64)
         dilated = _neighbourhood(max_extinction, np.maximum)
         peak = float(dilated.max())
         # The larger of extinction and emission, as GridMedium._build_majorant_grid (Cycles' rule;

@@ -21,8 +21,9 @@ from native_helpers import Z_LIMIT, box_mesh  # noqa: E402
 ALBEDO = 0.7
 
 
-def wavy_program(scale: float = 1.0, constant: bool = False):
-    """sigma_t(P) = scale (2 + 1.5 sin(3 x) cos(2 z)) in object space (0.5 if constant), albedo 0.7."""
+def wavy_program(scale: float = 1.0, constant: bool = False, second_axis: str = "z"):
+    """sigma_t(P) = scale (2 + 1.5 sin(3 x) cos(2 z)) in object space (0.5 if constant), albedo 0.7
+    (second_axis "y": cos(2 y) instead)."""
     b = ProgramBuilder("wavy")
     pos = b.alloc(3)
     b.emit("TEXCO", P.TEXCO_OBJECT, pos)
@@ -31,7 +32,7 @@ def wavy_program(scale: float = 1.0, constant: bool = False):
     sx, cz, prod, dens = b.alloc(), b.alloc(), b.alloc(), b.alloc()
     b.emit("MATH", P.MATH["MULTIPLY"], x, b.const(3.0), b.const(0.0), sx)
     b.emit("MATH", P.MATH["SINE"], sx, sx, sx, sx)
-    b.emit("MATH", P.MATH["MULTIPLY"], z, b.const(2.0), b.const(0.0), cz)
+    b.emit("MATH", P.MATH["MULTIPLY"], y if second_axis == "y" else z, b.const(2.0), b.const(0.0), cz)
     b.emit("MATH", P.MATH["COSINE"], cz, cz, cz, cz)
     b.emit("MATH", P.MATH["MULTIPLY"], sx, cz, cz, prod)
     if constant:
@@ -123,6 +124,14 @@ def test_majorant_bounds_the_program(medium):
     cells = np.minimum(index.astype(int), medium.majorant_shape - 1)
     bound = medium.majorant_grid[cells[:, 0], cells[:, 1], cells[:, 2]]
     assert np.all(sigma_t.max(axis=1) <= bound)
+
+
+def test_majorant_cells_merge_along_an_axis_the_density_does_not_vary_on(medium):
+    """The wavy density is constant along y: one majorant cell spans y (the tests above and below
+    run on that merged grid); a density varying along y keeps its cells."""
+    assert tuple(medium.majorant_shape) == (24, 1, 24)
+    varying = ProgramMedium("wavy y", wavy_program(second_axis="y"), object_matrix(), ([-1, -1, -1], [1, 1, 1]))
+    assert tuple(varying.majorant_shape) == (24, 24, 1)
 
 
 def test_transmittance_matches_quadrature_and_a_planted_error_fails(medium):

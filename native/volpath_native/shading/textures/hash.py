@@ -72,7 +72,7 @@ def lookup3_mix(a, b, c):
     return a, b, c
 
 
-@stage_kernel
+@inline_stage_kernel
 def hash_uint(kx):
     """hash.h `hash_uint`."""
     a = (0xDEADBEEF + (1 << 2) + 13) & MASK32
@@ -82,7 +82,7 @@ def hash_uint(kx):
     return c
 
 
-@stage_kernel
+@inline_stage_kernel
 def hash_uint2(kx, ky):
     """hash.h `hash_uint2`."""
     init = (0xDEADBEEF + (2 << 2) + 13) & MASK32
@@ -91,7 +91,7 @@ def hash_uint2(kx, ky):
     return c
 
 
-@stage_kernel
+@inline_stage_kernel
 def hash_uint3(kx, ky, kz):
     """hash.h `hash_uint3`."""
     init = (0xDEADBEEF + (3 << 2) + 13) & MASK32
@@ -100,7 +100,7 @@ def hash_uint3(kx, ky, kz):
     return c
 
 
-@stage_kernel
+@inline_stage_kernel
 def hash_uint4(kx, ky, kz, kw):
     """hash.h `hash_uint4`: mix after x, y, z, then w joins a before final."""
     init = (0xDEADBEEF + (4 << 2) + 13) & MASK32

@@ -7,8 +7,6 @@ by a few ulps; cycles-volumes-from-blender.md section 3 "may be approximated").
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ...jit import inline_stage_kernel, stage_kernel
@@ -32,9 +30,18 @@ def fade(t):
 
 @inline_stage_kernel
 def floorfrac(x):
-    """util/math_base.h `floorfrac` on a float32: (int floor, float32 x - floor as float64)."""
-    f = np.float32(math.floor(x))
-    return int(f), float(np.float32(x) - f)
+    """util/math_base.h `floorfrac` on a float32: (int floor, float32 x - floor as float64).
+    np.floor is one instruction; math.floor a call into numba's helper library."""
+    x32 = np.float32(x)
+    f = np.floor(x32)
+    return int(f), float(x32 - f)
+
+
+@inline_stage_kernel
+def _signed(h, bit, x):
+    """-x where bit `bit` of h is set, else x (noise.h's `h & bit ? -x : x`), as a product by +-1
+    (exact): a branch on a hash bit is unpredictable (measured: perlin_3d 115 -> 90 ns)."""
+    return (1.0 - 2.0 * ((h & bit) != 0)) * x
 
 
 @inline_stage_kernel
@@ -51,7 +58,7 @@ def grad2(h, x, y):
     h = h & 7
     u = x if h < 4 else y
     v = 2.0 * (y if h < 4 else x)
-    return (-u if h & 1 else u) + (-v if h & 2 else v)
+    return _signed(h, 1, u) + _signed(h, 2, v)
 
 
 @inline_stage_kernel
@@ -61,7 +68,7 @@ def grad3(h, x, y, z):
     u = x if h < 8 else y
     vt = x if (h == 12 or h == 14) else z
     v = y if h < 4 else vt
-    return (-u if h & 1 else u) + (-v if h & 2 else v)
+    return _signed(h, 1, u) + _signed(h, 2, v)
 
 
 @inline_stage_kernel
@@ -71,7 +78,7 @@ def grad4(h, x, y, z, w):
     u = x if h < 24 else y
     v = y if h < 16 else z
     s = z if h < 8 else w
-    return (-u if h & 1 else u) + (-v if h & 2 else v) + (-s if h & 4 else s)
+    return _signed(h, 1, u) + _signed(h, 2, v) + _signed(h, 4, s)
 
 
 @inline_stage_kernel
@@ -163,6 +170,8 @@ def wrap_coordinate(p):
     """noise.h `snoise_*`: fmod(p, 1e5) + 0.5 (|p| >= 1e6), in float32 (fmod is exact)."""
     p = np.float32(p)
     correction = np.float32(0.5) if abs(p) >= np.float32(NOISE_PRECISION_LIMIT) else np.float32(0.0)
+    if abs(p) < np.float32(NOISE_WRAP):  # fmod is the identity there, and a libm call
+        return p + correction
     return np.float32(np.fmod(float(p), NOISE_WRAP)) + correction
 
 
