@@ -40,6 +40,12 @@ MAJORANT_MARGIN = 1.25
 #: every cell's majorant is at least this fraction of the medium's largest sampled extinction,
 #: so features the sampling missed are still reached by collisions (unbiased, see the docstring)
 MAJORANT_FLOOR = 1e-3
+#: ... and at least this fraction of its largest sampled emission: the collisions estimate the
+#: emission (E / majorant at each), whose relative variance along a ray falls as 1 / its expected
+#: collisions, so faint glow needs some. Measured on the procedural fire (128 spp x 4 seeds, one
+#: thread): error x time 0.73 (1e-3, the extinction floor alone) -> 0.61 (3e-2), 0.76 (0.1);
+#: media without emission are unchanged.
+EMISSION_FLOOR = 3e-2
 #: residual ratio tracking (shadow rays): the control is the middle of the cell's sampled range
 #: per channel, the rate its largest half width x this margin. A larger rate takes more lookups
 #: but lowers the variance (exponent: integral of (sigma_t - control)^2 / rate); measured on the
@@ -240,7 +246,8 @@ class ProgramMedium(GridMedium):
         # on the procedural fire 0.5x or 2x the emission lost 20 % or 5 % in error x time).
         glow = _neighbourhood(max_emission, np.maximum)
         peak_any = max(peak, float(glow.max()))
-        majorant = np.maximum(np.maximum(dilated, glow) * MAJORANT_MARGIN, MAJORANT_FLOOR * peak_any)
+        floor = max(MAJORANT_FLOOR * peak_any, EMISSION_FLOOR * float(glow.max()))
+        majorant = np.maximum(np.maximum(dilated, glow) * MAJORANT_MARGIN, floor)
         self.majorant_shape = np.array(shape, dtype=np.int64)
         self.cell_size = cells
         self.majorant_grid = majorant.astype(np.float64)
