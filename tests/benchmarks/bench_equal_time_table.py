@@ -12,10 +12,10 @@ ones (height fog, noise cloud, procedural fire, smoke plume, 128^3 cloud). The Q
 (a Mantaflow bake: Debian's Blender) stays in bench_fire.py.
 
     python tests/benchmarks/bench_equal_time_table.py [--seconds 10] [--reference-spp 1024] [--resolution 64]
-        [--rows cornell_point,...|all] [--no-mitsuba] [--quick] [--seeds N]
+        [--rows cornell_point,...|all] [--no-mitsuba] [--quick] [--seeds N] [--reference-factor 4]
     python tests/benchmarks/bench_equal_time_table.py --cpu-per-sample 128 [--rows ...] [--resolution 48]
-        (VolPath only: CPU time per camera sample of each row, one thread, a batch of one pass
-        over the image as in the equal-time runs; insensitive to other jobs on the machine)
+        (VolPath only: CPU time per camera sample of each row, one thread, the default batch size as
+        the equal-time runs' Time Limit rounds use; insensitive to other jobs on the machine)
 """
 from __future__ import annotations
 
@@ -98,6 +98,9 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=10.0, help="equal render-time budget per engine")
     parser.add_argument("--reference-spp", type=int, default=1024)
+    parser.add_argument("--reference-factor", type=float, default=4.0,
+                        help="a row's reference has at least this many times the samples Cycles renders in the "
+                             "budget (a larger one is rendered and cached; 0: --reference-spp always)")
     parser.add_argument("--resolution", type=int, default=64)
     parser.add_argument("--rows", default=",".join(HOMOGENEOUS_ROWS),
                         help=f"comma-separated row names, or 'all' (of {', '.join(ROWS)})")
@@ -110,7 +113,7 @@ def main(argv=None) -> int:
                         help="only VolPath's CPU time per camera sample at SPP samples per pixel, one thread")
     args = parser.parse_args(argv)
     if args.quick:
-        args.seconds, args.reference_spp, args.resolution = 2.0, 128, 32
+        args.seconds, args.reference_spp, args.resolution, args.reference_factor = 2.0, 128, 32, 0.0
     with_mitsuba = not args.no_mitsuba and mitsuba_peer.available()
     if not args.no_mitsuba and not with_mitsuba:
         print("Mitsuba 3 is not installed (pip install mitsuba): its column is left out")
@@ -129,7 +132,8 @@ def main(argv=None) -> int:
     for name, scene, native_scene, tmp in row_scenes(args, volpath_engine):
         ratios = []
         for seed in range(1, args.seeds + 1):
-            row = equal_time_row(name, scene, native_scene, args.seconds, args.reference_spp, tmp, seed=seed)
+            row = equal_time_row(name, scene, native_scene, args.seconds, args.reference_spp, tmp, seed=seed,
+                                 reference_factor=args.reference_factor)
             print(*row.lines(pixels), sep="\n", flush=True)
             ratios.append(row.time_ratio)
         volpath_cell = f"{np.median(ratios):.3g}x" + (
@@ -178,7 +182,7 @@ def cpu_per_sample(args, volpath_engine) -> int:
     for name, _, native_scene, _ in row_scenes(args, volpath_engine):
         settings = native_scene.settings
         pixels = native_scene.film.width * native_scene.film.height
-        settings.samples, settings.threads, settings.batch_size, settings.seed = args.cpu_per_sample, 1, pixels, 1
+        settings.samples, settings.threads, settings.seed = args.cpu_per_sample, 1, 1
         render(native_scene)  # first-call costs
         start = time.process_time()
         result = render(native_scene)

@@ -63,31 +63,32 @@ class EqualTimeRow:
 
 
 def equal_time_row(name: str, scene, native_scene, seconds: float, reference_spp: int, scratch,
-                   resolution=None, seed: int = 1) -> EqualTimeRow:
+                   resolution=None, seed: int = 1, reference_factor: float = 0.0) -> EqualTimeRow:
     """resolution: Cycles' render size override (native_scene must have been exported at it).
-    seed: both engines' seed for this run (the reference keeps its own)."""
-    return equal_time_rows(name, scene, {"": native_scene}, seconds, reference_spp, scratch, resolution, seed)[""]
+    seed: both engines' seed for this run (the reference keeps its own). reference_factor: see
+    equal_time_rows."""
+    return equal_time_rows(name, scene, {"": native_scene}, seconds, reference_spp, scratch, resolution, seed,
+                           reference_factor)[""]
 
 
 def equal_time_rows(name: str, scene, native_scenes: dict, seconds: float, reference_spp: int, scratch,
-                    resolution=None, seed: int = 1) -> dict:
+                    resolution=None, seed: int = 1, reference_factor: float = 0.0) -> dict:
     """One row per VolPath variant (label -> native scene, e.g. settings changed), all against
-    the same reference and the same Cycles run."""
+    the same reference and the same Cycles run. reference_factor > 0: the reference has at least
+    that many times the samples Cycles renders in the budget (the next power of two): the share of
+    the reference's own error removed from both relMSEs is n_c / (n_c + n_ref) of Cycles' raw one,
+    and where the runs out-sample the reference (a fast row: 13000 spp against 4096) that
+    subtraction, not the engines, decides the ratio."""
     from addon.compare import cycles_engine, metrics, volpath_engine
 
     first = next(iter(native_scenes.values()))
     bounces = cycles_engine.BounceLimits.from_settings(first.settings)
-    cached = _reference_path(first, reference_spp, scratch)
     with cycles_engine.matched_settings(scene, bounces, resolution):
-        if cached.exists():
-            from volpath_native import imageio
-            reference = cycles_engine.CyclesRun(image=imageio.read_exr(cached), samples=reference_spp, seconds=0.0,
-                                                render_seconds=0.0)
-            cycles_samples = cycles_engine.samples_for_budget(scene, seconds, seed=2, count_setup=False)
-        else:
-            reference = cycles_engine.render_once(scene, samples=reference_spp, seed=1000, scratch=scratch)
-            _store_reference(reference.image, cached)
-            cycles_samples = max(1, int(seconds / (reference.render_seconds / reference_spp)))
+        reference, cycles_samples = _reference_and_budget(scene, first, seconds, reference_spp, scratch)
+        wanted = int(2 ** np.ceil(np.log2(max(reference_factor * cycles_samples, 1.0))))
+        if reference_factor > 0 and wanted > reference_spp:
+            reference_spp = wanted
+            reference, _ = _reference_and_budget(scene, first, seconds, reference_spp, scratch)
         cycles_run = cycles_engine.render_once(scene, samples=cycles_samples, seed=seed, scratch=scratch)
     raw_c = metrics.relmse(cycles_run.image, reference.image)
     reference_share = raw_c * cycles_run.samples / (cycles_run.samples + reference_spp)
@@ -108,6 +109,22 @@ def equal_time_rows(name: str, scene, native_scenes: dict, seconds: float, refer
                                    raw_c - reference_share, reference_spp, means_v / np.maximum(means_r, 1e-30),
                                    lookups, means_r)
     return rows
+
+
+def _reference_and_budget(scene, native_scene, seconds: float, reference_spp: int, scratch):
+    """The (cached) Cycles reference at reference_spp and how many samples Cycles renders in
+    `seconds` of sampling (measured by the reference render, or by a pilot when it was cached)."""
+    from addon.compare import cycles_engine
+
+    cached = _reference_path(native_scene, reference_spp, scratch)
+    if cached.exists():
+        from volpath_native import imageio
+        reference = cycles_engine.CyclesRun(image=imageio.read_exr(cached), samples=reference_spp, seconds=0.0,
+                                            render_seconds=0.0)
+        return reference, cycles_engine.samples_for_budget(scene, seconds, seed=2, count_setup=False)
+    reference = cycles_engine.render_once(scene, samples=reference_spp, seed=1000, scratch=scratch)
+    _store_reference(reference.image, cached)
+    return reference, max(1, int(seconds / (reference.render_seconds / reference_spp)))
 
 
 def _reference_path(native_scene, reference_spp: int, scratch) -> Path:
