@@ -6,10 +6,10 @@ signature). Indexing that tuple with a runtime slot (`GR[gi]`) makes numba selec
 33-field struct through a switch and copy it, and a non-inlined call that receives the tuple
 receives all four structs field by field: measured on the height fog's shadow rays
 (tests/benchmarks-style loop of grids_transmittance, one grid), 509 ns per call against 238 ns for
-the same tracking called on GR[0] directly. Each function here branches on the slot and indexes
-the tuple with constants (free: the fields are the caller's own arguments), then calls the grid
-kernel with that one struct; it places the medium at the path's shutter time first
-(medium_motion.place_at_time, a no-op for static media).
+the same tracking called on GR[0] directly. _on_slot branches on the slot and indexes the tuple with
+constants (free: the fields are the caller's own arguments), then calls the grid kernel with that
+one struct; it places the medium at the path's shutter time first (medium_motion.place_at_time, a
+no-op for static media).
 """
 from __future__ import annotations
 
@@ -23,84 +23,49 @@ GRID_SLOTS = 4
 
 
 @inline_stage_kernel
-def slot_transmittance(GR, gi, time, o, d, t_max, key, stream):
-    """grid_transmittance of the grid in slot gi over [0, t_max] of ray (o, d): rgb."""
+def _on_slot(GR, gi, time, kernel, args):
+    """kernel(grid, *args) on the grid in slot gi, placed at shutter time `time`."""
     if gi == 0:
         place_at_time(GR[0], time)
-        return grid_transmittance(GR[0], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream)
+        return kernel(GR[0], *args)
     if gi == 1:
         place_at_time(GR[1], time)
-        return grid_transmittance(GR[1], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream)
+        return kernel(GR[1], *args)
     if gi == 2:
         place_at_time(GR[2], time)
-        return grid_transmittance(GR[2], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream)
+        return kernel(GR[2], *args)
     if gi == 3:
         place_at_time(GR[3], time)
-        return grid_transmittance(GR[3], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream)
+        return kernel(GR[3], *args)
     # more grids than slots (a tuple compiled longer): the runtime index, slower
     place_at_time(GR[gi], time)
-    return grid_transmittance(GR[gi], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream)
+    return kernel(GR[gi], *args)
+
+
+@inline_stage_kernel
+def slot_transmittance(GR, gi, time, o, d, t_max, key, stream):
+    """grid_transmittance of the grid in slot gi over [0, t_max] of ray (o, d): rgb."""
+    return _on_slot(GR, gi, time, grid_transmittance, (o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream))
 
 
 @inline_stage_kernel
 def slot_attenuation(GR, gi, time, o, d, t_max, key, stream):
     """grid_attenuation of the grid in slot gi: (wr, wg, wb, er, eg, eb)."""
-    if gi == 0:
-        place_at_time(GR[0], time)
-        return grid_attenuation(GR[0], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream)
-    if gi == 1:
-        place_at_time(GR[1], time)
-        return grid_attenuation(GR[1], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream)
-    if gi == 2:
-        place_at_time(GR[2], time)
-        return grid_attenuation(GR[2], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream)
-    if gi == 3:
-        place_at_time(GR[3], time)
-        return grid_attenuation(GR[3], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream)
-    # more grids than slots (a tuple compiled longer): the runtime index, slower
-    place_at_time(GR[gi], time)
-    return grid_attenuation(GR[gi], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream)
+    return _on_slot(GR, gi, time, grid_attenuation, (o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream))
 
 
 @inline_stage_kernel
 def slot_free_flight(GR, gi, time, o, d, t_max, key, stream, thr):
     """grid_free_flight of the grid in slot gi (thr: the path throughput, rgb):
     (t, scattered, wr, wg, wb, er, eg, eb)."""
-    if gi == 0:
-        place_at_time(GR[0], time)
-        return grid_free_flight(GR[0], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream, thr[0], thr[1], thr[2])
-    if gi == 1:
-        place_at_time(GR[1], time)
-        return grid_free_flight(GR[1], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream, thr[0], thr[1], thr[2])
-    if gi == 2:
-        place_at_time(GR[2], time)
-        return grid_free_flight(GR[2], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream, thr[0], thr[1], thr[2])
-    if gi == 3:
-        place_at_time(GR[3], time)
-        return grid_free_flight(GR[3], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream, thr[0], thr[1], thr[2])
-    # more grids than slots (a tuple compiled longer): the runtime index, slower
-    place_at_time(GR[gi], time)
-    return grid_free_flight(GR[gi], o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream, thr[0], thr[1], thr[2])
+    return _on_slot(GR, gi, time, grid_free_flight,
+                    (o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream, thr[0], thr[1], thr[2]))
 
 
 @inline_stage_kernel
 def slot_scattering(GR, gi, time, x):
     """sigma_s (rgb) of the grid in slot gi at world point x, and its Henyey-Greenstein g."""
-    if gi == 0:
-        place_at_time(GR[0], time)
-        return grid_scattering(GR[0], x[0], x[1], x[2]), GR[0].g
-    if gi == 1:
-        place_at_time(GR[1], time)
-        return grid_scattering(GR[1], x[0], x[1], x[2]), GR[1].g
-    if gi == 2:
-        place_at_time(GR[2], time)
-        return grid_scattering(GR[2], x[0], x[1], x[2]), GR[2].g
-    if gi == 3:
-        place_at_time(GR[3], time)
-        return grid_scattering(GR[3], x[0], x[1], x[2]), GR[3].g
-    # more grids than slots (a tuple compiled longer): the runtime index, slower
-    place_at_time(GR[gi], time)
-    return grid_scattering(GR[gi], x[0], x[1], x[2]), GR[gi].g
+    return _on_slot(GR, gi, time, grid_scattering, (x[0], x[1], x[2])), slot_g(GR, gi)
 
 
 @inline_stage_kernel
@@ -114,48 +79,17 @@ def slot_g(GR, gi):
         return GR[2].g
     if gi == 3:
         return GR[3].g
-    # more grids than slots (a tuple compiled longer): the runtime index, slower
     return GR[gi].g
 
 
 @inline_stage_kernel
 def slot_nee_distance_sample_pdf(GR, gi, time, o, d, t_end, sigma_extra, u_choice, u_t):
     """grid_nee_distance_sample_pdf of the grid in slot gi: (t, pdf)."""
-    if gi == 0:
-        place_at_time(GR[0], time)
-        return grid_nee_distance_sample_pdf(GR[0], o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, u_choice,
-                                            u_t)
-    if gi == 1:
-        place_at_time(GR[1], time)
-        return grid_nee_distance_sample_pdf(GR[1], o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, u_choice,
-                                            u_t)
-    if gi == 2:
-        place_at_time(GR[2], time)
-        return grid_nee_distance_sample_pdf(GR[2], o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, u_choice,
-                                            u_t)
-    if gi == 3:
-        place_at_time(GR[3], time)
-        return grid_nee_distance_sample_pdf(GR[3], o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, u_choice, u_t)
-    # more grids than slots (a tuple compiled longer): the runtime index, slower
-    place_at_time(GR[gi], time)
-    return grid_nee_distance_sample_pdf(GR[gi], o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, u_choice, u_t)
+    return _on_slot(GR, gi, time, grid_nee_distance_sample_pdf,
+                    (o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, u_choice, u_t))
 
 
 @inline_stage_kernel
 def slot_nee_distance_pdf(GR, gi, time, o, d, t_end, sigma_extra, t):
     """grid_nee_distance_pdf of the grid in slot gi at distance t."""
-    if gi == 0:
-        place_at_time(GR[0], time)
-        return grid_nee_distance_pdf(GR[0], o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, t)
-    if gi == 1:
-        place_at_time(GR[1], time)
-        return grid_nee_distance_pdf(GR[1], o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, t)
-    if gi == 2:
-        place_at_time(GR[2], time)
-        return grid_nee_distance_pdf(GR[2], o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, t)
-    if gi == 3:
-        place_at_time(GR[3], time)
-        return grid_nee_distance_pdf(GR[3], o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, t)
-    # more grids than slots (a tuple compiled longer): the runtime index, slower
-    place_at_time(GR[gi], time)
-    return grid_nee_distance_pdf(GR[gi], o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, t)
+    return _on_slot(GR, gi, time, grid_nee_distance_pdf, (o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, t))
