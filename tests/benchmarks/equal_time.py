@@ -84,11 +84,15 @@ def equal_time_rows(name: str, scene, native_scenes: dict, seconds: float, refer
     first = next(iter(native_scenes.values()))
     bounces = cycles_engine.BounceLimits.from_settings(first.settings)
     with cycles_engine.matched_settings(scene, bounces, resolution):
-        reference, cycles_samples = _reference_and_budget(scene, first, seconds, reference_spp, scratch)
+        reference = _cycles_reference(scene, first, reference_spp, scratch)
+        if reference.render_seconds > 0.0:  # just rendered: its own cost per sample sizes the budget
+            cycles_samples = max(1, int(seconds / (reference.render_seconds / reference_spp)))
+        else:
+            cycles_samples = cycles_engine.samples_for_budget(scene, seconds, seed=2, count_setup=False)
         wanted = int(2 ** np.ceil(np.log2(max(reference_factor * cycles_samples, 1.0))))
         if reference_factor > 0 and wanted > reference_spp:
             reference_spp = wanted
-            reference, _ = _reference_and_budget(scene, first, seconds, reference_spp, scratch)
+            reference = _cycles_reference(scene, first, reference_spp, scratch)
         cycles_run = cycles_engine.render_once(scene, samples=cycles_samples, seed=seed, scratch=scratch)
     raw_c = metrics.relmse(cycles_run.image, reference.image)
     reference_share = raw_c * cycles_run.samples / (cycles_run.samples + reference_spp)
@@ -111,20 +115,19 @@ def equal_time_rows(name: str, scene, native_scenes: dict, seconds: float, refer
     return rows
 
 
-def _reference_and_budget(scene, native_scene, seconds: float, reference_spp: int, scratch):
-    """The (cached) Cycles reference at reference_spp and how many samples Cycles renders in
-    `seconds` of sampling (measured by the reference render, or by a pilot when it was cached)."""
+def _cycles_reference(scene, native_scene, reference_spp: int, scratch):
+    """The Cycles reference at reference_spp: from the cache (render_seconds 0), else rendered and
+    cached."""
     from addon.compare import cycles_engine
 
     cached = _reference_path(native_scene, reference_spp, scratch)
     if cached.exists():
         from volpath_native import imageio
-        reference = cycles_engine.CyclesRun(image=imageio.read_exr(cached), samples=reference_spp, seconds=0.0,
-                                            render_seconds=0.0)
-        return reference, cycles_engine.samples_for_budget(scene, seconds, seed=2, count_setup=False)
+        return cycles_engine.CyclesRun(image=imageio.read_exr(cached), samples=reference_spp, seconds=0.0,
+                                       render_seconds=0.0)
     reference = cycles_engine.render_once(scene, samples=reference_spp, seed=1000, scratch=scratch)
     _store_reference(reference.image, cached)
-    return reference, max(1, int(seconds / (reference.render_seconds / reference_spp)))
+    return reference
 
 
 def _reference_path(native_scene, reference_spp: int, scratch) -> Path:
