@@ -42,13 +42,11 @@ def _direct(G, o, d, t_max, key, out):
 
 def test_every_slot_calls_its_own_grid():
     count = GRID_SLOTS + 1  # one past the constant-index branches
-    grids = []
-    for seed in range(count):
-        medium, _ = smooth_random_medium(seed=30 + seed)
+    media = [smooth_random_medium(seed=30 + seed)[0] for seed in range(count)]
+    for seed, medium in enumerate(media):
         medium.g = 0.1 * seed
-        grids.append(medium.tables)
-    GR = tuple(grids)
-    m = smooth_random_medium(seed=30)[0].source_index_to_world
+    GR = tuple(medium.tables for medium in media)
+    m = media[0].source_index_to_world
     o = tuple(m[:3, 3] - 2.0 * m[:3, 0])
     d = tuple(m[:3, 0] / np.linalg.norm(m[:3, 0]))
     t_max = 30.0 * float(np.linalg.norm(m[:3, 0]))
