@@ -169,9 +169,9 @@ def perlin_4d(x, y, z, w):
 def wrap_coordinate(p):
     """noise.h `snoise_*`: fmod(p, 1e5) + 0.5 (|p| >= 1e6), in float32 (fmod is exact)."""
     p = np.float32(p)
+    if abs(p) < np.float32(NOISE_WRAP):  # fmod is the identity there (and a libm call), no correction
+        return p
     correction = np.float32(0.5) if abs(p) >= np.float32(NOISE_PRECISION_LIMIT) else np.float32(0.0)
-    if abs(p) < np.float32(NOISE_WRAP):  # fmod is the identity there, and a libm call
-        return p + correction
     return np.float32(np.fmod(float(p), NOISE_WRAP)) + correction
 
 
