@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...jit import inline_stage_kernel, stage_kernel
-from .hash import hash_uint, hash_uint2, hash_uint3, hash_uint4, MASK32
+from .hash import hash_uint, hash_uint2, MASK32
+from .perlin_corners import corner_gradients_3d, corner_gradients_4d
 
 #: noise.h noise_scale1..4 (experimental OSL constants), as the float32 Cycles multiplies by
 NOISE_SCALE_1D = float(np.float32(0.2500))
@@ -112,7 +113,7 @@ def perlin_2d(x, y):
 
 @stage_kernel
 def perlin_3d(x, y, z):
-    """noise.h `perlin_3d` (scalar tri_mix)."""
+    """noise.h `perlin_3d` (tri_mix; the corners hashed together, perlin_corners)."""
     X, fx = floorfrac(x)
     Y, fy = floorfrac(y)
     Z, fz = floorfrac(z)
@@ -120,15 +121,7 @@ def perlin_3d(x, y, z):
     v = fade(fy)
     w = fade(fz)
     X0, X1, Y0, Y1, Z0, Z1 = X & MASK32, (X + 1) & MASK32, Y & MASK32, (Y + 1) & MASK32, Z & MASK32, (Z + 1) & MASK32
-    gx, gy, gz = fx - 1.0, fy - 1.0, fz - 1.0
-    v0 = grad3(hash_uint3(X0, Y0, Z0), fx, fy, fz)
-    v1 = grad3(hash_uint3(X1, Y0, Z0), gx, fy, fz)
-    v2 = grad3(hash_uint3(X0, Y1, Z0), fx, gy, fz)
-    v3 = grad3(hash_uint3(X1, Y1, Z0), gx, gy, fz)
-    v4 = grad3(hash_uint3(X0, Y0, Z1), fx, fy, gz)
-    v5 = grad3(hash_uint3(X1, Y0, Z1), gx, fy, gz)
-    v6 = grad3(hash_uint3(X0, Y1, Z1), fx, gy, gz)
-    v7 = grad3(hash_uint3(X1, Y1, Z1), gx, gy, gz)
+    v0, v1, v2, v3, v4, v5, v6, v7 = corner_gradients_3d(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz)
     u1, v_1, w1 = 1.0 - u, 1.0 - v, 1.0 - w
     return (w1 * (v_1 * (v0 * u1 + v1 * u) + v * (v2 * u1 + v3 * u))
             + w * (v_1 * (v4 * u1 + v5 * u) + v * (v6 * u1 + v7 * u)))
@@ -137,15 +130,7 @@ def perlin_3d(x, y, z):
 @stage_kernel
 def _perlin_4d_slice(X0, X1, Y0, Y1, Z0, Z1, W, fx, fy, fz, fw, u, v, t):
     """The tri_mix of the 8 corners at one w lattice value (noise.h `perlin_4d`, `quad_mix`)."""
-    gx, gy, gz = fx - 1.0, fy - 1.0, fz - 1.0
-    v0 = grad4(hash_uint4(X0, Y0, Z0, W), fx, fy, fz, fw)
-    v1 = grad4(hash_uint4(X1, Y0, Z0, W), gx, fy, fz, fw)
-    v2 = grad4(hash_uint4(X0, Y1, Z0, W), fx, gy, fz, fw)
-    v3 = grad4(hash_uint4(X1, Y1, Z0, W), gx, gy, fz, fw)
-    v4 = grad4(hash_uint4(X0, Y0, Z1, W), fx, fy, gz, fw)
-    v5 = grad4(hash_uint4(X1, Y0, Z1, W), gx, fy, gz, fw)
-    v6 = grad4(hash_uint4(X0, Y1, Z1, W), fx, gy, gz, fw)
-    v7 = grad4(hash_uint4(X1, Y1, Z1, W), gx, gy, gz, fw)
+    v0, v1, v2, v3, v4, v5, v6, v7 = corner_gradients_4d(X0, X1, Y0, Y1, Z0, Z1, W, fx, fy, fz, fw)
     u1, v_1, t1 = 1.0 - u, 1.0 - v, 1.0 - t
     return (t1 * (v_1 * (v0 * u1 + v1 * u) + v * (v2 * u1 + v3 * u))
             + t * (v_1 * (v4 * u1 + v5 * u) + v * (v6 * u1 + v7 * u)))
