@@ -104,3 +104,16 @@ def test_planted_noise_scale_error_is_caught(cycles_values):
     planted = 0.5 + (ours[:, 0] - 0.5) * (0.9830 / 0.9820)
     bad, _ = mismatches(planted, values["v0"])
     assert bad > len(planted) // 4
+
+
+def test_random_offsets_table_equals_compiled_hash():
+    """noise.RANDOM_OFFSETS (built at import) holds what the compiled hashes give for every
+    (dimensions, seed, component) the node uses; a table entry off by one float32 ulp fails."""
+    import numba
+    from volpath_native.shading.textures import noise as N
+    hashed = numba.njit(N._hashed_random_offset)
+    for d in range(1, 5):
+        for s in range(6):
+            for c in range(4):
+                assert N.RANDOM_OFFSETS[d, s, c] == hashed(d, float(s), c), (d, s, c)
+    assert N.RANDOM_OFFSETS[3, 3, 0] != np.nextafter(hashed(3, 3.0, 0), np.float32(300.0))

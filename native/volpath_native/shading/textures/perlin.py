@@ -31,11 +31,15 @@ def fade(t):
 
 @inline_stage_kernel
 def floorfrac(x):
-    """util/math_base.h `floorfrac` on a float32: (int floor, float32 x - floor as float64).
-    np.floor is one instruction; math.floor a call into numba's helper library."""
+    """util/math_base.h `floorfrac` on a float32: (int floor, float32 x - floor as float64). The
+    floor is the truncation, one lower below zero: np.floor on float32 is a call to numba's helper
+    on the portable target (no SSE4.1 roundss), 1.3 % of a noise cloud's render. perlin receives
+    wrapped coordinates (|x| < 1e5 + 1), exact as integers."""
     x32 = np.float32(x)
-    f = np.floor(x32)
-    return int(f), float(x32 - f)
+    i = int(x32)
+    if np.float32(i) > x32:
+        i -= 1
+    return i, float(x32 - np.float32(i))
 
 
 @inline_stage_kernel
