@@ -13,7 +13,8 @@ the mesh itself. The majorant grid over the box is *sampled* (as Cycles' octree 
 src/scene/volume.cpp, VolumeManager::build_octree evaluates 16 points per cell of a 128^3 grid):
 each cell's bound is the largest extinction found at stratified points of the cell and its
 neighbours (a one-cell dilation), times MAJORANT_MARGIN, and at least MAJORANT_FLOOR of the medium's
-largest value. Where the true extinction still exceeds it, the trackers use signed null-collision
+largest value (in an emissive medium, at least EMISSION_FLOOR of its largest emission: collisions
+estimate the glow). Where the true extinction still exceeds it, the trackers use signed null-collision
 and ratio-tracking weights (grid_kernels: weighted delta tracking, Kutz et al. 2017), so the image
 stays unbiased -- only noisier; such events are counted and reported (Cycles instead raises the
 majorant locally and notes that this is "not really unbiased", shade_volume.h).
