@@ -626,6 +626,17 @@ def _rescaled_above(u, start):
 
 
 @inline_stage_kernel
+def _equiangular_setup_if(prob_eq, T, K, p, iteration, row, o, d, t_lit0, t_lit1, time):
+    """equiangular_setup1 toward the light's centre (equiangular_centre) where the technique is
+    used (prob_eq > 0); else a placeholder never sampled nor evaluated: a sun's next event skips
+    the two draws, the square root and the arctan2 (sun row: atan2 1.8 % of its render)."""
+    if prob_eq > 0.0:
+        centre = equiangular_centre(T, row, _u(K, p, iteration, D_MED_LU), _u(K, p, iteration, D_MED_LV), time)
+        return equiangular_setup1(o, d, t_lit0, t_lit1, centre)
+    return 0.0, 1.0, 0.0, t_lit0, t_lit1
+
+
+@inline_stage_kernel
 def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q, n_shadow, margin):
     """One next-event vertex on the segment [0, t_end] (see module docstring)."""
     mode = S.volume_sampling
@@ -645,8 +656,7 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
     t_lit0, t_lit1 = light_segment(T, row, o, d, t_end)  # where the light can reach
     if not (can_equi or can_distance) or not t_lit0 <= t_lit1:
         return n_shadow
-    centre = equiangular_centre(T, row, _u(K, p, iteration, D_MED_LU), _u(K, p, iteration, D_MED_LV), F[p, TIME])
-    setup = equiangular_setup1(o, d, t_lit0, t_lit1, centre)
+    setup = _equiangular_setup_if(prob_eq, T, K, p, iteration, row, o, d, t_lit0, t_lit1, F[p, TIME])
     # Both techniques stay on the lit part [t_lit0, t_lit1]: the light reaches nothing else (Cycles
     # volume_integrate_homogeneous samples its direct distance on that interval too).
     lit_length = t_lit1 - t_lit0
@@ -658,7 +668,7 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
     if not np.isfinite(t):
         t = 0.0
     tr = transmittance3(st, t)
-    pdf_t = prob_eq * equiangular_pdf1(setup, t)
+    pdf_t = prob_eq * equiangular_pdf1(setup, t) if prob_eq > 0.0 else 0.0
     if can_distance and t_lit0 <= t <= t_lit1:
         pdf_t += (1.0 - prob_eq) * truncated_distance_pdf1(st, pc, transmittance3(st, t - t_lit0), lit_length)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
@@ -1047,8 +1057,7 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
     t_lit0, t_lit1 = light_segment(T, row, o, d, t_end)  # where the light can reach
     if not (can_equi or finite) or not t_lit0 <= t_lit1:
         return n_shadow
-    centre = equiangular_centre(T, row, _u(K, p, iteration, D_MED_LU), _u(K, p, iteration, D_MED_LV), F[p, TIME])
-    setup = equiangular_setup1(o, d, t_lit0, t_lit1, centre)
+    setup = _equiangular_setup_if(prob_eq, T, K, p, iteration, row, o, d, t_lit0, t_lit1, F[p, TIME])
     u_t = _u(K, p, iteration, D_MED_T)
     gi = _first_grid(S, C, p)
     sigma_extra = (st[0] + st[1] + st[2]) / 3.0
@@ -1062,7 +1071,7 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
     else:  # (prob_eq < 1 here, so the segment is finite)
         t, pdf_distance = slot_nee_distance_sample_pdf(GR, gi, F[p, TIME], o, d, t_end, sigma_extra,
                                                        _u(K, p, iteration, D_MED_TECH), u_t / (1.0 - prob_eq))
-        pdf_t = prob_eq * equiangular_pdf1(setup, t) + (1.0 - prob_eq) * pdf_distance
+        pdf_t = (1.0 - prob_eq) * pdf_distance + (prob_eq * equiangular_pdf1(setup, t) if prob_eq > 0.0 else 0.0)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
     x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, sel, o, d,
