@@ -131,9 +131,11 @@ def main(argv=None) -> int:
     table = []
     for name, scene, native_scene, tmp in row_scenes(args, volpath_engine):
         ratios = []
+        budget = 0  # Cycles' samples in the budget: the first seed's pilot sizes it for the row
         for seed in range(1, args.seeds + 1):
             row = equal_time_row(name, scene, native_scene, args.seconds, args.reference_spp, tmp, seed=seed,
-                                 reference_factor=args.reference_factor)
+                                 reference_factor=args.reference_factor, cycles_samples=budget)
+            budget = row.cycles_spp
             print(*row.lines(pixels), sep="\n", flush=True)
             ratios.append(row.time_ratio)
         volpath_cell = f"{np.median(ratios):.3g}x" + (

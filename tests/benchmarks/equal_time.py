@@ -63,31 +63,35 @@ class EqualTimeRow:
 
 
 def equal_time_row(name: str, scene, native_scene, seconds: float, reference_spp: int, scratch,
-                   resolution=None, seed: int = 1, reference_factor: float = 0.0) -> EqualTimeRow:
+                   resolution=None, seed: int = 1, reference_factor: float = 0.0,
+                   cycles_samples: int = 0) -> EqualTimeRow:
     """resolution: Cycles' render size override (native_scene must have been exported at it).
-    seed: both engines' seed for this run (the reference keeps its own). reference_factor: see
-    equal_time_rows."""
+    seed: both engines' seed for this run (the reference keeps its own). reference_factor,
+    cycles_samples: see equal_time_rows."""
     return equal_time_rows(name, scene, {"": native_scene}, seconds, reference_spp, scratch, resolution, seed,
-                           reference_factor)[""]
+                           reference_factor, cycles_samples)[""]
 
 
 def equal_time_rows(name: str, scene, native_scenes: dict, seconds: float, reference_spp: int, scratch,
-                    resolution=None, seed: int = 1, reference_factor: float = 0.0) -> dict:
+                    resolution=None, seed: int = 1, reference_factor: float = 0.0,
+                    cycles_samples: int = 0) -> dict:
     """One row per VolPath variant (label -> native scene, e.g. settings changed), all against
     the same reference and the same Cycles run. reference_factor > 0: the reference has at least
     that many times the samples Cycles renders in the budget (the next power of two): the share of
     the reference's own error removed from both relMSEs is n_c / (n_c + n_ref) of Cycles' raw one,
     and where the runs out-sample the reference (a fast row: 13000 spp against 4096) that
-    subtraction, not the engines, decides the ratio."""
+    subtraction, not the engines, decides the ratio. cycles_samples > 0: Cycles' samples in the
+    budget as an earlier run of the same row measured them (its cycles_spp), instead of a pilot
+    render: the seeds of one row share one budget."""
     from addon.compare import cycles_engine, metrics, volpath_engine
 
     first = next(iter(native_scenes.values()))
     bounces = cycles_engine.BounceLimits.from_settings(first.settings)
     with cycles_engine.matched_settings(scene, bounces, resolution):
         reference = _cycles_reference(scene, first, reference_spp, scratch)
-        if reference.render_seconds > 0.0:  # just rendered: its own cost per sample sizes the budget
+        if cycles_samples <= 0 and reference.render_seconds > 0.0:  # just rendered: its cost per sample
             cycles_samples = max(1, int(seconds / (reference.render_seconds / reference_spp)))
-        else:
+        elif cycles_samples <= 0:
             cycles_samples = cycles_engine.samples_for_budget(scene, seconds, seed=2, count_setup=False)
         wanted = int(2 ** np.ceil(np.log2(max(reference_factor * cycles_samples, 1.0))))
         if reference_factor > 0 and wanted > reference_spp:
