@@ -13,8 +13,8 @@ no-op for static media).
 """
 from __future__ import annotations
 
-from .grid_kernels import (grid_attenuation, grid_free_flight, grid_nee_distance_pdf, grid_nee_distance_sample_pdf,
-                           grid_scattering, grid_transmittance)
+from .grid_kernels import (grid_attenuation, grid_cell_max_extinction, grid_free_flight, grid_nee_distance_pdf,
+                           grid_nee_distance_sample_pdf, grid_scattering, grid_transmittance)
 from .jit import inline_stage_kernel
 from .medium_motion import place_at_time
 
@@ -66,6 +66,12 @@ def slot_free_flight(GR, gi, time, o, d, t_max, key, stream, thr):
 def slot_scattering(GR, gi, time, x):
     """sigma_s (rgb) of the grid in slot gi at world point x, and its Henyey-Greenstein g."""
     return _on_slot(GR, gi, time, grid_scattering, (x[0], x[1], x[2])), slot_g(GR, gi)
+
+
+@inline_stage_kernel
+def slot_cell_max_extinction(GR, gi, time, x):
+    """grid_cell_max_extinction of the grid in slot gi at world point x."""
+    return _on_slot(GR, gi, time, grid_cell_max_extinction, (x[0], x[1], x[2]))
 
 
 @inline_stage_kernel

@@ -33,7 +33,7 @@ from .bsdfs.closures import (LABEL_DIFFUSE, LABEL_TRANSMIT, LABEL_TRANSPARENT, s
 from .camera import camera_ray1, ray_time1
 from .film import filter_offset1
 from .grid_kernels import STREAM_DIMENSIONS
-from .grid_slots import (slot_attenuation, slot_free_flight, slot_g, slot_nee_distance_pdf,
+from .grid_slots import (slot_attenuation, slot_cell_max_extinction, slot_free_flight, slot_g, slot_nee_distance_pdf,
                          slot_nee_distance_sample_pdf, slot_scattering, slot_transmittance)
 from .jit import inline_stage_kernel, stage_kernel
 from .light_kernels import (TRIANGLE, equiangular_centre, lamp_crossing_unselected, light_has_position,
@@ -81,6 +81,11 @@ _MAX_STEPS, _MAX_GRIDS = 64, 16
 # Random dimensions within one iteration (see sampling.CAMERA_DIMS).
 D_CHANNEL, D_DISTANCE, D_MED_SELECT, D_MED_TECH, D_MED_T, D_MED_CHANNEL, D_MED_LU, D_MED_LV, \
     D_PHASE_U, D_PHASE_V, D_RR, D_SURF_SELECT, D_SURF_LU, D_SURF_LV, D_BSDF_U, D_BSDF_V, D_SURF_PICK = range(17)
+D_MED_ROULETTE = 18  # its own Sobol' pair (18, 19)
+assert D_MED_ROULETTE < DIMS_PER_EVENT
+#: survival probability of a grid next-event vertex in a majorant cell that looked empty (see
+#: _empty_cell_survival)
+EMPTY_CELL_SURVIVAL = 0.125
 
 MAX_VOLUME_BOUNDS = 1024  # Cycles' VOLUME_BOUNDS_MAX: null crossings are not transparent bounces
 VOLUME_SAMPLING = {"mis": 0, "distance": 1, "equiangular": 2}
@@ -1029,6 +1034,23 @@ def _grid_phase_pdf(S, GR, C, p, x, ss_hom, g_hom, cos_theta, time):
 
 
 @inline_stage_kernel
+def _empty_cell_survival(S, GR, C, p, x, ss_hom, time):
+    """Russian roulette of a grid next-event vertex before its coefficients are evaluated (on a
+    shader-program medium, a run of the program): where every grid on the stack found its majorant
+    cell empty (its largest sampled extinction 0) and no homogeneous medium scatters, the vertex
+    survives with EMPTY_CELL_SURVIVAL and is weighted by its inverse; elsewhere 1. Unbiased whatever
+    the sampling missed. Equiangular vertices land anywhere on the segment, also in the empty
+    corners of a procedural cloud's box, where the run found sigma_s = 0."""
+    if S.mixed_phase or _max3(ss_hom) > 0.0:
+        return 1.0
+    for v in range(S.vol_grid.shape[0]):
+        gi = S.vol_grid[v]
+        if C[p, v] > 0 and gi >= 0 and slot_cell_max_extinction(GR, gi, time, x) > 0.0:
+            return 1.0
+    return EMPTY_CELL_SURVIVAL
+
+
+@inline_stage_kernel
 def _first_grid(S, C, p):
     """Index (into GR) of the first grid medium on path p's volume stack."""
     for v in range(S.vol_grid.shape[0]):
@@ -1076,9 +1098,12 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
         return n_shadow
     x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, sel, o, d,
                                                                     t, F[p, TIME])
+    survival = _empty_cell_survival(S, GR, C, p, x, ss, F[p, TIME])
+    if survival < 1.0 and _u(K, p, iteration, D_MED_ROULETTE) >= survival:
+        return n_shadow
     f, phase_pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, cos_theta, F[p, TIME])
     w = power_heuristic(light_pdf, phase_pdf) if light_pdf > 0.0 else 1.0
-    contrib = _scale3(_mul3(_mul3(_mul3(beta, transmittance3(st, t)), f), value), w / pdf_t)
+    contrib = _scale3(_mul3(_mul3(_mul3(beta, transmittance3(st, t)), f), value), w / (pdf_t * survival))
     if _max3(contrib) > 0.0:
         contrib = _mul3(contrib, grids_transmittance(S, GR, C, p, o, d, t, K[p],
                                                      grid_stream(iteration, P_NEE_SEGMENT, 0, 0), F[p, TIME]))

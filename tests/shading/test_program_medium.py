@@ -209,3 +209,35 @@ def test_render_of_a_constant_program_equals_the_homogeneous_medium():
     z = (a - b) / se
     assert np.all(np.abs(z) < 4.5), np.abs(z).max()
     assert a.mean() > 0.01
+
+
+def test_next_events_in_cells_that_looked_empty_are_rouletted_without_bias():
+    """A grid next-event vertex where every majorant cell looked empty (largest sampled extinction
+    0) survives Russian roulette with EMPTY_CELL_SURVIVAL and is weighted by its inverse
+    (path_kernels._empty_cell_survival). With every cell's sampled maximum set to 0 (in place: the
+    kernels read the array), all next-event vertices of a wavy medium go through the roulette: the
+    render must equal the untouched medium's (per-pixel z-test). Without the inverse weight the
+    next events would lose 7/8 of their light, far outside the test's tolerance."""
+    from volpath_native.path_kernels import EMPTY_CELL_SURVIVAL
+    assert 0.0 < EMPTY_CELL_SURVIVAL < 1.0
+
+    def scene(medium):
+        camera = np.eye(4)
+        camera[:3, 3] = [0.0, 0.0, 4.0]
+        floor = box_mesh("floor", [-3, -3, -2.5], [3, 3, -2.0], 0)
+        fog = box_mesh("fog", [-1, -1, -1], [1, 1, 1], 1)
+        return Scene(camera=Camera(camera, fov=0.9), film=Film(12, 12), meshes=[floor, fog],
+                     materials=[Material("floor"), Material("fog", surface="null", medium=0)], media=[medium],
+                     lights=[PointLight("lamp", [0.5, 0.8, 1.6], power=300.0)],
+                     settings=RenderSettings(samples=256, volume_bounces=4, seed=7, threads=1))
+
+    reference = render(scene(ProgramMedium("wavy", wavy_program(), np.eye(4), ([-1, -1, -1], [1, 1, 1]))))
+    emptied = ProgramMedium("wavy", wavy_program(), np.eye(4), ([-1, -1, -1], [1, 1, 1]))
+    emptied.extinction_extrema[..., 1] = 0.0
+    rouletted = render(scene(emptied))
+    a, b = rouletted.image[..., :3], reference.image[..., :3]
+    z = (a - b) / (np.sqrt(rouletted.variance + reference.variance) + 1e-9)
+    assert np.all(np.abs(z) < 4.5), np.abs(z).max()
+    assert a.mean() > 0.01
+    # the roulette did run: fewer next events survive, so the rouletted image is noisier
+    assert rouletted.variance.mean() > 1.05 * reference.variance.mean()
