@@ -187,23 +187,25 @@ def test_a_too_low_majorant_stays_unbiased_and_is_counted():
         assert tables.flags[flag] > 0  # the violations were seen
 
 
+def lit_box_scene(medium):
+    """A 2 m box of `medium` over a floor, lit by a point lamp, 12x12 at 256 spp."""
+    camera = np.eye(4)
+    camera[:3, 3] = [0.0, 0.0, 4.0]
+    floor = box_mesh("floor", [-3, -3, -2.5], [3, 3, -2.0], 0)
+    fog = box_mesh("fog", [-1, -1, -1], [1, 1, 1], 1)
+    return Scene(camera=Camera(camera, fov=0.9), film=Film(12, 12), meshes=[floor, fog],
+                 materials=[Material("floor"), Material("fog", surface="null", medium=0)], media=[medium],
+                 lights=[PointLight("lamp", [0.5, 0.8, 1.6], power=300.0)],
+                 settings=RenderSettings(samples=256, volume_bounces=4, seed=7, threads=1))
+
+
 def test_render_of_a_constant_program_equals_the_homogeneous_medium():
     """The whole path: a 'varying' program whose density is the constant 0.5 renders like the
     homogeneous Medium of the same coefficients (per-pixel z-test between the two renders)."""
-    def scene(medium):
-        camera = np.eye(4)
-        camera[:3, 3] = [0.0, 0.0, 4.0]
-        floor = box_mesh("floor", [-3, -3, -2.5], [3, 3, -2.0], 0)
-        fog = box_mesh("fog", [-1, -1, -1], [1, 1, 1], 1)
-        return Scene(camera=Camera(camera, fov=0.9), film=Film(12, 12), meshes=[floor, fog],
-                     materials=[Material("floor"), Material("fog", surface="null", medium=0)], media=[medium],
-                     lights=[PointLight("lamp", [0.5, 0.8, 1.6], power=300.0)],
-                     settings=RenderSettings(samples=256, volume_bounces=4, seed=7, threads=1))
-
     program = wavy_program(constant=True)
     assert program.varying
-    varying = render(scene(ProgramMedium("const", program, np.eye(4), ([-1, -1, -1], [1, 1, 1]))))
-    homogeneous = render(scene(Medium("const", sigma_s=0.5 * ALBEDO, sigma_a=0.5 * (1 - ALBEDO))))
+    varying = render(lit_box_scene(ProgramMedium("const", program, np.eye(4), ([-1, -1, -1], [1, 1, 1]))))
+    homogeneous = render(lit_box_scene(Medium("const", sigma_s=0.5 * ALBEDO, sigma_a=0.5 * (1 - ALBEDO))))
     a, b = varying.image[..., :3], homogeneous.image[..., :3]
     se = np.sqrt(varying.variance + homogeneous.variance) + 1e-9
     z = (a - b) / se
@@ -221,20 +223,10 @@ def test_next_events_in_cells_that_looked_empty_are_rouletted_without_bias():
     from volpath_native.path_kernels import EMPTY_CELL_SURVIVAL
     assert 0.0 < EMPTY_CELL_SURVIVAL < 1.0
 
-    def scene(medium):
-        camera = np.eye(4)
-        camera[:3, 3] = [0.0, 0.0, 4.0]
-        floor = box_mesh("floor", [-3, -3, -2.5], [3, 3, -2.0], 0)
-        fog = box_mesh("fog", [-1, -1, -1], [1, 1, 1], 1)
-        return Scene(camera=Camera(camera, fov=0.9), film=Film(12, 12), meshes=[floor, fog],
-                     materials=[Material("floor"), Material("fog", surface="null", medium=0)], media=[medium],
-                     lights=[PointLight("lamp", [0.5, 0.8, 1.6], power=300.0)],
-                     settings=RenderSettings(samples=256, volume_bounces=4, seed=7, threads=1))
-
-    reference = render(scene(ProgramMedium("wavy", wavy_program(), np.eye(4), ([-1, -1, -1], [1, 1, 1]))))
+    reference = render(lit_box_scene(ProgramMedium("wavy", wavy_program(), np.eye(4), ([-1, -1, -1], [1, 1, 1]))))
     emptied = ProgramMedium("wavy", wavy_program(), np.eye(4), ([-1, -1, -1], [1, 1, 1]))
     emptied.extinction_extrema[..., 1] = 0.0
-    rouletted = render(scene(emptied))
+    rouletted = render(lit_box_scene(emptied))
     a, b = rouletted.image[..., :3], reference.image[..., :3]
     z = (a - b) / (np.sqrt(rouletted.variance + reference.variance) + 1e-9)
     assert np.all(np.abs(z) < 4.5), np.abs(z).max()
