@@ -207,18 +207,25 @@ def grid_scattering(G, x, y, z):
     return c[0], c[1], c[2]
 
 
-
-@stage_kernel
-def grid_cell_max_extinction(G, x, y, z):
-    """The largest extinction found in the majorant cell holding a world point (G.extrema: exact
-    on voxel grids, sampled on shader-program media), clamped to the nearest cell outside the box:
-    0 where the cell looked empty."""
+@inline_stage_kernel
+def majorant_cell(G, x, y, z):
+    """(i, j, k) of the majorant cell holding a world point, clamped to the nearest cell outside
+    the box."""
     px, py, pz = _to_index(G, x, y, z)
     s, cs = G.index_to_cell, G.cell_shape
     i = min(max(int(np.floor(px * s[0])), 0), cs[0] - 1)
     j = min(max(int(np.floor(py * s[1])), 0), cs[1] - 1)
     k = min(max(int(np.floor(pz * s[2])), 0), cs[2] - 1)
+    return i, j, k
+
+
+@stage_kernel
+def grid_cell_max_extinction(G, x, y, z):
+    """The largest extinction found in the majorant cell holding a world point (G.extrema: exact
+    on voxel grids, sampled on shader-program media): 0 where the cell looked empty."""
+    i, j, k = majorant_cell(G, x, y, z)
     return G.extrema[i, j, k, 1]
+
 
 # ---------------------------------------------------------------------------------------------
 # DDA over majorant cells (pbrt-v4 DDAMajorantIterator, src/pbrt/media.h)

@@ -642,6 +642,12 @@ def _equiangular_setup_if(prob_eq, T, K, p, iteration, row, o, d, t_lit0, t_lit1
 
 
 @inline_stage_kernel
+def _weighted_equiangular_pdf(prob_eq, setup, t):
+    """prob_eq x the equiangular pdf of distance t: 0 without evaluating a placeholder setup."""
+    return prob_eq * equiangular_pdf1(setup, t) if prob_eq > 0.0 else 0.0
+
+
+@inline_stage_kernel
 def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_end, Q, n_shadow, margin):
     """One next-event vertex on the segment [0, t_end] (see module docstring)."""
     mode = S.volume_sampling
@@ -673,7 +679,7 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
     if not np.isfinite(t):
         t = 0.0
     tr = transmittance3(st, t)
-    pdf_t = prob_eq * equiangular_pdf1(setup, t) if prob_eq > 0.0 else 0.0
+    pdf_t = _weighted_equiangular_pdf(prob_eq, setup, t)
     if can_distance and t_lit0 <= t <= t_lit1:
         pdf_t += (1.0 - prob_eq) * truncated_distance_pdf1(st, pc, transmittance3(st, t - t_lit0), lit_length)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
@@ -1093,7 +1099,7 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
     else:  # (prob_eq < 1 here, so the segment is finite)
         t, pdf_distance = slot_nee_distance_sample_pdf(GR, gi, F[p, TIME], o, d, t_end, sigma_extra,
                                                        _u(K, p, iteration, D_MED_TECH), u_t / (1.0 - prob_eq))
-        pdf_t = (1.0 - prob_eq) * pdf_distance + (prob_eq * equiangular_pdf1(setup, t) if prob_eq > 0.0 else 0.0)
+        pdf_t = (1.0 - prob_eq) * pdf_distance + _weighted_equiangular_pdf(prob_eq, setup, t)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
     x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, sel, o, d,

@@ -39,7 +39,7 @@ from __future__ import annotations
 import numpy as np
 
 from .grid_kernels import (FLAG_BUDGET, FLAG_LOOKUPS, TRACKING_BUDGET, _dda_start, _next_crossing, _step_cell,
-                           _to_index, grid_coefficients)
+                           grid_coefficients, majorant_cell)
 from .jit import inline_stage_kernel, stage_kernel
 from .sampling import uniform1
 
@@ -56,11 +56,7 @@ _FLAG_SHADOW_LOOKUPS = FLAG_LOOKUPS + 1
 @inline_stage_kernel
 def _control_at(G, x, y, z):
     """The control extinction (rgb) of the majorant cell holding a world point."""
-    px, py, pz = _to_index(G, x, y, z)
-    s, cs = G.index_to_cell, G.cell_shape
-    i = min(max(int(np.floor(px * s[0])), 0), cs[0] - 1)
-    j = min(max(int(np.floor(py * s[1])), 0), cs[1] - 1)
-    k = min(max(int(np.floor(pz * s[2])), 0), cs[2] - 1)
+    i, j, k = majorant_cell(G, x, y, z)
     c = G.control
     return c[i, j, k, 0], c[i, j, k, 1], c[i, j, k, 2]
 

@@ -140,26 +140,25 @@ def _corner_gradients_4d_x8(typingctx, X0, X1, Y0, Y1, Z0, Z1, W, fx, fy, fz, fw
     return sig, codegen
 
 
-def corner_gradients_3d(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz):
-    """grad3(hash_uint3(corner), offsets) of the 8 corners, x fastest then y then z (uncompiled)."""
-    from .perlin import grad3
-    out = []
+def _corners(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz):
+    """(X, Y, Z, offsets) of the 8 corners, x fastest then y then z (uncompiled)."""
     for i in range(LANES):
-        X, Y, Z = (X1 if i & 1 else X0), (Y1 if i & 2 else Y0), (Z1 if i & 4 else Z0)
         offsets = (fx - 1.0 if i & 1 else fx), (fy - 1.0 if i & 2 else fy), (fz - 1.0 if i & 4 else fz)
-        out.append(grad3.py_func(hash_uint3.py_func(X, Y, Z), *offsets))
-    return tuple(out)
+        yield (X1 if i & 1 else X0), (Y1 if i & 2 else Y0), (Z1 if i & 4 else Z0), offsets
+
+
+def corner_gradients_3d(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz):
+    """grad3(hash_uint3(corner), offsets) of the 8 corners (uncompiled)."""
+    from .perlin import grad3
+    return tuple(grad3.py_func(hash_uint3.py_func(X, Y, Z), *offsets)
+                 for X, Y, Z, offsets in _corners(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz))
 
 
 def corner_gradients_4d(X0, X1, Y0, Y1, Z0, Z1, W, fx, fy, fz, fw):
     """grad4(hash_uint4(corner, W), offsets) of the 8 corners of one w-slice (uncompiled)."""
     from .perlin import grad4
-    out = []
-    for i in range(LANES):
-        X, Y, Z = (X1 if i & 1 else X0), (Y1 if i & 2 else Y0), (Z1 if i & 4 else Z0)
-        offsets = (fx - 1.0 if i & 1 else fx), (fy - 1.0 if i & 2 else fy), (fz - 1.0 if i & 4 else fz)
-        out.append(grad4.py_func(hash_uint4.py_func(X, Y, Z, W), *offsets, fw))
-    return tuple(out)
+    return tuple(grad4.py_func(hash_uint4.py_func(X, Y, Z, W), *offsets, fw)
+                 for X, Y, Z, offsets in _corners(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz))
 
 
 @overload(corner_gradients_3d, jit_options={"cache": True})
