@@ -46,7 +46,7 @@ from .media import (channel_probabilities1, distance_pdf1, emission_integral1, e
                     transmittance1, transmittance3, truncated_distance_pdf1)
 from .mis import mis_weight, power_heuristic
 from .phase import hg_eval1, hg_sample1
-from .sample_pattern import path_key1, sample1
+from .sample_pattern import path_key1, sample1, sample2
 from .sampling import CAMERA_DIMS, DIMS_PER_EVENT, LENS_U_DIM, LENS_V_DIM, SHUTTER_TIME_DIM
 from .instance_motion import normal_map1
 from .motion_triangles import deform_step, deformed_corners1, is_deforming
@@ -83,6 +83,9 @@ D_CHANNEL, D_DISTANCE, D_MED_SELECT, D_MED_TECH, D_MED_T, D_MED_CHANNEL, D_MED_L
     D_PHASE_U, D_PHASE_V, D_RR, D_SURF_SELECT, D_SURF_LU, D_SURF_LV, D_BSDF_U, D_BSDF_V, D_SURF_PICK = range(17)
 D_MED_ROULETTE = 18  # its own Sobol' pair (18, 19)
 assert D_MED_ROULETTE < DIMS_PER_EVENT
+# pairs drawn together by _u2 (even offset, partner next)
+assert all(a % 2 == 0 and b == a + 1 for a, b in ((D_CHANNEL, D_DISTANCE), (D_MED_LU, D_MED_LV), (D_PHASE_U, D_PHASE_V),
+                                                  (D_SURF_LU, D_SURF_LV), (D_BSDF_U, D_BSDF_V)))
 #: survival probability of a grid next-event vertex in a majorant cell that looked empty (see
 #: _empty_cell_survival)
 EMPTY_CELL_SURVIVAL = 0.125
@@ -109,6 +112,13 @@ SceneTables = namedtuple("SceneTables", [
 @stage_kernel
 def _u(K, p, iteration, offset):
     return sample1(K[p], CAMERA_DIMS + iteration * DIMS_PER_EVENT + offset)
+
+
+@stage_kernel
+def _u2(K, p, iteration, offset):
+    """(_u at offset, _u at offset + 1) for an even offset: the two numbers of one Sobol' pair
+    (sample2; CAMERA_DIMS and DIMS_PER_EVENT are even)."""
+    return sample2(K[p], CAMERA_DIMS + iteration * DIMS_PER_EVENT + offset)
 
 
 @stage_kernel
@@ -251,9 +261,10 @@ def start_paths(S, cam, filter_inverse, seed_key, crop, full_width, pixel, sampl
         time = ray_time1(cam, py, sample1(key, SHUTTER_TIME_DIM))
         # Cycles' raster y grows upwards, VolPath's rows downwards: its filter table is not quite
         # symmetric (film.py), so the y offset is mirrored to land where Cycles' lands
+        filter_u, filter_v = sample2(key, 0)
         origin, direction, tmax, seen = camera_ray1(
-            cam, px + 0.5 + filter_offset1(filter_inverse, sample1(key, 0)),
-            py + 0.5 - filter_offset1(filter_inverse, sample1(key, 1)), lens_u, lens_v, time)
+            cam, px + 0.5 + filter_offset1(filter_inverse, filter_u),
+            py + 0.5 - filter_offset1(filter_inverse, filter_v), lens_u, lens_v, time)
         alive[p] = seen
         if not seen:
             unseen += 1
@@ -493,7 +504,8 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
                 pc = channel_probabilities1(beta, ss, st, 1.0, 1.0, 1.0)
                 p_surv = pc
                 sampled = True
-                ts = sample_distance1(st, pc, _u(K, p, iteration, D_CHANNEL), _u(K, p, iteration, D_DISTANCE))
+                u_channel, u_distance = _u2(K, p, iteration, D_CHANNEL)
+                ts = sample_distance1(st, pc, u_channel, u_distance)
                 grey = st[1] == st[0] and st[2] == st[0]
                 if ts < t_seg:
                     scatter = True
@@ -551,8 +563,7 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
             # ---- volume scattering vertex ---------------------------------------------------
             stats[0] += 1
             x = (o[0] + d[0] * t_scatter, o[1] + d[1] * t_scatter, o[2] + d[2] * t_scatter)
-            u1 = _u(K, p, iteration, D_PHASE_U)
-            u2 = _u(K, p, iteration, D_PHASE_V)
+            u1, u2 = _u2(K, p, iteration, D_PHASE_U)
             if grid_event:
                 wx, wy, wz, pdf = hg_sample1(d[0], d[1], d[2], event_g, u1, u2)
                 wo = (wx, wy, wz)
@@ -614,7 +625,7 @@ def _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, sel, o, d, t, time
     with probability sel) from it at the path's shutter time: (x, wi, dist, value, light pdf,
     cos(d, wi)), shared by homogeneous and grid NEE."""
     x = (o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t)
-    u1, u2 = _u(K, p, iteration, D_MED_LU), _u(K, p, iteration, D_MED_LV)
+    u1, u2 = _u2(K, p, iteration, D_MED_LU)
     wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light_selected(T, row, sel, x[0], x[1], x[2], u1, u2, time)
     value = _textured_light_value(S, T, SP, SPS, row, u1, u2, (wx, wy, wz), (v0, v1, v2), time)
     return x, (wx, wy, wz), dist, value, light_pdf, d[0] * wx + d[1] * wy + d[2] * wz
@@ -636,7 +647,8 @@ def _equiangular_setup_if(prob_eq, T, K, p, iteration, row, o, d, t_lit0, t_lit1
     used (prob_eq > 0); else a placeholder never sampled nor evaluated: a sun's next event skips
     the two draws, the square root and the arctan2 (sun row: atan2 1.8 % of its render)."""
     if prob_eq > 0.0:
-        centre = equiangular_centre(T, row, _u(K, p, iteration, D_MED_LU), _u(K, p, iteration, D_MED_LV), time)
+        u1, u2 = _u2(K, p, iteration, D_MED_LU)
+        centre = equiangular_centre(T, row, u1, u2, time)
         return equiangular_setup1(o, d, t_lit0, t_lit1, centre)
     return 0.0, 1.0, 0.0, t_lit0, t_lit1
 
@@ -891,7 +903,7 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
     row, sel = tree_select(T.tree, _u(K, p, iteration, D_SURF_SELECT), pb[0], pb[1], pb[2], ns[0], ns[1], ns[2], 0.0,
                            mis_mode)
     if row >= 0:
-        u1, u2 = _u(K, p, iteration, D_SURF_LU), _u(K, p, iteration, D_SURF_LV)
+        u1, u2 = _u2(K, p, iteration, D_SURF_LU)
         wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light_selected(T, row, sel, above[0], above[1], above[2],
                                                                         u1, u2, F[p, TIME])
         wi = (wx, wy, wz)
@@ -908,8 +920,9 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
                 if transmits and S.tri_volume[prim] >= 0:  # the shadow ray crosses into / out of the volume
                     cross_boundary(S, Q.C, q, prim, front)
                     _set3(Q.F, q, S_ST, stack_sigma_t(S, Q.C, q))
+    u_bsdf, v_bsdf = _u2(K, p, iteration, D_BSDF_U)
     wo, weight, pdf, label = surface_sample(CB, count, BT, wi_view, ns, n_face, _u(K, p, iteration, D_SURF_PICK),
-                                            _u(K, p, iteration, D_BSDF_U), _u(K, p, iteration, D_BSDF_V))
+                                            u_bsdf, v_bsdf)
     if label == 0:
         return False, n_shadow
     _set3(F, p, BETA, _mul3(beta, weight))
@@ -960,7 +973,8 @@ def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st
     ts = np.inf
     if hom:
         pc = channel_probabilities1(beta, ss, st, 1.0, 1.0, 1.0)
-        ts = sample_distance1(st, pc, _u(K, p, iteration, D_CHANNEL), _u(K, p, iteration, D_DISTANCE))
+        u_channel, u_distance = _u2(K, p, iteration, D_CHANNEL)
+        ts = sample_distance1(st, pc, u_channel, u_distance)
     t_end = min(ts, t_seg)
     w = (1.0, 1.0, 1.0)
     grid_event = False

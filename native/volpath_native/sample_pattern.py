@@ -98,17 +98,37 @@ def path_key1(seed_key, pixel, sample):
 
 
 @kernel
-def sample1(key, dimension):
-    """Float64 in [0, 1) for one path key at one dimension: coordinate dimension % 2 of the
-    Owen-scrambled Sobol' pair dimension // 2 (sobol_burley_sample_2D), at the pixel's shuffled
-    sample index."""
-    d = np.uint64(dimension)
-    coordinate = d & np.uint64(1)
-    seeds = _mix64((key >> np.uint64(SAMPLE_INDEX_BITS)) ^ ((d >> np.uint64(1)) * _MIX2))
-    # shuffle the sample index (pair-specific: decorrelates pairs), keep its 24 low bits
-    index = owen_scramble_reversed(reverse_bits32(key & _SAMPLE_MASK), seeds & _M32)
+def _pair_seeds_index(key, pair):
+    """The Owen-scramble seeds of a pair and the pixel's sample index shuffled for it
+    (pair-specific: decorrelates pairs; its 24 low bits)."""
+    seeds = _mix64((key >> np.uint64(SAMPLE_INDEX_BITS)) ^ (pair * _MIX2))
+    return seeds, owen_scramble_reversed(reverse_bits32(key & _SAMPLE_MASK), seeds & _M32)
+
+
+@kernel
+def _coordinate(seeds, index, coordinate):
+    """Coordinate 0 or 1 of the Owen-scrambled Sobol' point at the shuffled index."""
     x = np.uint64(0)
     for b in range(3):
         x ^= SOBOL_BYTE_TABLES[coordinate, b, (index >> np.uint64(24 - 8 * b)) & np.uint64(255)]
     x = owen_scramble_reversed(x, (seeds >> np.uint64(32)) ^ _COORDINATE_SALT[coordinate])
     return np.float64(reverse_bits32(x)) * (1.0 / 4294967296.0)
+
+
+@kernel
+def sample1(key, dimension):
+    """Float64 in [0, 1) for one path key at one dimension: coordinate dimension % 2 of the
+    Owen-scrambled Sobol' pair dimension // 2 (sobol_burley_sample_2D), at the pixel's shuffled
+    sample index."""
+    d = np.uint64(dimension)
+    seeds, index = _pair_seeds_index(key, d >> np.uint64(1))
+    return _coordinate(seeds, index, d & np.uint64(1))
+
+
+@kernel
+def sample2(key, dimension):
+    """(sample1(key, dimension), sample1(key, dimension + 1)) for an even dimension: both
+    coordinates of one pair from one shuffle of the sample index (a 2-D decision's two numbers
+    for half the hashing)."""
+    seeds, index = _pair_seeds_index(key, np.uint64(dimension) >> np.uint64(1))
+    return _coordinate(seeds, index, np.uint64(0)), _coordinate(seeds, index, np.uint64(1))

@@ -15,7 +15,7 @@ import pytest
 from native_helpers import camera_at, chi2_critical
 
 import volpath_native as vp
-from volpath_native.sample_pattern import SAMPLE_INDEX_BITS, SOBOL_BYTE_TABLES, path_key1, sample1
+from volpath_native.sample_pattern import SAMPLE_INDEX_BITS, SOBOL_BYTE_TABLES, path_key1, sample1, sample2
 from volpath_native.sampling import seed_key, uniform1
 
 M32 = np.uint64(0xFFFFFFFF)
@@ -112,6 +112,25 @@ def test_numpy_copy_is_sample1():
     for dimension in (0, 1, 2, 3, 26, 27, 1 << 39, (1 << 39) + 1, (1 << 39) + 2):
         dims = np.full(keys.shape, dimension)
         np.testing.assert_array_equal(SAMPLERS["sobol"](keys, dims), _numpy_sample(keys, dims))
+
+
+@numba.njit
+def _draw_pairs(keys, dimensions):
+    out = np.empty((keys.shape[0], 2))
+    for i in range(keys.shape[0]):
+        out[i, 0], out[i, 1] = sample2(keys[i], dimensions[i])
+    return out
+
+
+def test_pair_draw_is_both_coordinates_of_sample1():
+    """sample2 (one shuffle for a pair's two numbers) equals sample1 at the pair's even and odd
+    dimension, bit for bit."""
+    keys, _ = _grid([0, 1, 77, 4095], np.r_[0:300, (1 << 24) - 3:(1 << 24) + 3])
+    for dimension in (0, 2, 26, 1 << 39):
+        dims = np.full(keys.shape, dimension)
+        pairs = _draw_pairs(keys, dims)
+        np.testing.assert_array_equal(pairs[:, 0], _draw(keys, dims, False))
+        np.testing.assert_array_equal(pairs[:, 1], _draw(keys, dims + 1, False))
 
 
 def test_key_holds_the_sample_index_under_a_pixel_hash():
