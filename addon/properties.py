@@ -32,7 +32,7 @@ class VolpathRenderSettings(bpy.types.PropertyGroup):
         name="Transparent", default=8, min=0, max=1024,
         description="Maximum number of invisible medium boundaries a path may cross")
     min_bounces_russian_roulette: IntProperty(
-        name="Russian Roulette Start", default=3, min=0, max=1024,
+        name="Russian Roulette Start", default=6, min=0, max=1024,
         description="Bounce after which paths are terminated randomly by their throughput")
     volume_sampling: EnumProperty(
         name="Volume Sampling", default="MIS",
