@@ -620,12 +620,12 @@ def _select_in_segment(T, K, p, iteration, o, d, t):
 
 
 @inline_stage_kernel
-def _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, sel, o, d, t, time):
+def _medium_light_sample(S, T, SP, SPS, u_light, row, sel, o, d, t, time):
     """The next-event vertex x = o + t d of a medium segment and a sample of light `row` (chosen
-    with probability sel) from it at the path's shutter time: (x, wi, dist, value, light pdf,
-    cos(d, wi)), shared by homogeneous and grid NEE."""
+    with probability sel) from it with the pair u_light (D_MED_LU, D_MED_LV) at the path's shutter
+    time: (x, wi, dist, value, light pdf, cos(d, wi)), shared by homogeneous and grid NEE."""
     x = (o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t)
-    u1, u2 = _u2(K, p, iteration, D_MED_LU)
+    u1, u2 = u_light
     wx, wy, wz, dist, v0, v1, v2, light_pdf = sample_light_selected(T, row, sel, x[0], x[1], x[2], u1, u2, time)
     value = _textured_light_value(S, T, SP, SPS, row, u1, u2, (wx, wy, wz), (v0, v1, v2), time)
     return x, (wx, wy, wz), dist, value, light_pdf, d[0] * wx + d[1] * wy + d[2] * wz
@@ -642,13 +642,13 @@ def _rescaled_above(u, start):
 
 
 @inline_stage_kernel
-def _equiangular_setup_if(prob_eq, T, K, p, iteration, row, o, d, t_lit0, t_lit1, time):
-    """equiangular_setup1 toward the light's centre (equiangular_centre) where the technique is
-    used (prob_eq > 0); else a placeholder never sampled nor evaluated: a sun's next event skips
-    the two draws, the square root and the arctan2 (sun row: atan2 1.8 % of its render)."""
+def _equiangular_setup_if(prob_eq, T, u_light, row, o, d, t_lit0, t_lit1, time):
+    """equiangular_setup1 toward the light's centre (equiangular_centre, aimed with the light
+    sample's own pair u_light) where the technique is used (prob_eq > 0); else a placeholder never
+    sampled nor evaluated: a sun's next event skips the square root and the arctan2 (sun row:
+    atan2 1.8 % of its render)."""
     if prob_eq > 0.0:
-        u1, u2 = _u2(K, p, iteration, D_MED_LU)
-        centre = equiangular_centre(T, row, u1, u2, time)
+        centre = equiangular_centre(T, row, u_light[0], u_light[1], time)
         return equiangular_setup1(o, d, t_lit0, t_lit1, centre)
     return 0.0, 1.0, 0.0, t_lit0, t_lit1
 
@@ -679,7 +679,8 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
     t_lit0, t_lit1 = light_segment(T, row, o, d, t_end)  # where the light can reach
     if not (can_equi or can_distance) or not t_lit0 <= t_lit1:
         return n_shadow
-    setup = _equiangular_setup_if(prob_eq, T, K, p, iteration, row, o, d, t_lit0, t_lit1, F[p, TIME])
+    u_light = _u2(K, p, iteration, D_MED_LU)  # the light sample's pair, also the equiangular centre's
+    setup = _equiangular_setup_if(prob_eq, T, u_light, row, o, d, t_lit0, t_lit1, F[p, TIME])
     # Both techniques stay on the lit part [t_lit0, t_lit1]: the light reaches nothing else (Cycles
     # volume_integrate_homogeneous samples its direct distance on that interval too).
     lit_length = t_lit1 - t_lit0
@@ -696,8 +697,8 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
         pdf_t += (1.0 - prob_eq) * truncated_distance_pdf1(st, pc, transmittance3(st, t - t_lit0), lit_length)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
-    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, sel, o, d,
-                                                                    t, F[p, TIME])
+    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, u_light, row, sel, o, d, t,
+                                                                    F[p, TIME])
     if S.mixed_phase and _phase_is_mixed(S, C, p):
         scattering, phase = _phase_mixture_eval(S, C, p, cos_theta)
     else:
@@ -1099,7 +1100,8 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
     t_lit0, t_lit1 = light_segment(T, row, o, d, t_end)  # where the light can reach
     if not (can_equi or finite) or not t_lit0 <= t_lit1:
         return n_shadow
-    setup = _equiangular_setup_if(prob_eq, T, K, p, iteration, row, o, d, t_lit0, t_lit1, F[p, TIME])
+    u_light = _u2(K, p, iteration, D_MED_LU)  # the light sample's pair, also the equiangular centre's
+    setup = _equiangular_setup_if(prob_eq, T, u_light, row, o, d, t_lit0, t_lit1, F[p, TIME])
     u_t = _u(K, p, iteration, D_MED_T)
     gi = _first_grid(S, C, p)
     sigma_extra = (st[0] + st[1] + st[2]) / 3.0
@@ -1116,8 +1118,8 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
         pdf_t = (1.0 - prob_eq) * pdf_distance + _weighted_equiangular_pdf(prob_eq, setup, t)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow
-    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, K, p, iteration, row, sel, o, d,
-                                                                    t, F[p, TIME])
+    x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, u_light, row, sel, o, d, t,
+                                                                    F[p, TIME])
     survival = _empty_cell_survival(S, GR, C, p, x, ss, F[p, TIME])
     if survival < 1.0 and _u(K, p, iteration, D_MED_ROULETTE) >= survival:
         return n_shadow
