@@ -52,6 +52,7 @@ from .instance_motion import normal_map1
 from .motion_triangles import deform_step, deformed_corners1, is_deforming
 from .surface_programs import (frame_at_time, has_program_emission, program_emission, program_shading_normal,
                                shade_surface_program)
+from .table_ref import table_ref
 
 # F columns
 O, D, BETA, PREV = 0, 3, 6, 9
@@ -454,6 +455,9 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
     triangle; accel.Accelerator). Shadow rays go to the queue Q; returns its
     length. The next rays of live paths are written to o32, d32, t32. stats: [vertices]
     accumulated."""
+    # callees take the tables by reference, not ~4 KB of flattened arrays per call (table_ref.py)
+    S, T, GR, SN, BT, CB, SP, SPS, Q = (table_ref(S), table_ref(T), table_ref(GR), table_ref(SN), table_ref(BT),
+                                        table_ref(CB), table_ref(SP), table_ref(SPS), table_ref(Q))
     eps = S.epsilon
     margin = 2.0 * eps  # shadow rays stop short of the light's own surface
     n_shadow = 0
@@ -1157,6 +1161,8 @@ def shadow_step(S, GR, SN, BT, CB, SP, SPS, Q, m, hit_t, hit_prim, hit_inst, hit
     cross null boundaries (the volume stack and the segment's sigma_t change) and transparent
     surfaces (x their transparency, Cycles shade_shadow.h / surface_shader_transparency). Returns
     how many rays continue (in place at the front of the queue, their rays rewritten)."""
+    S, GR, SN, BT, CB, SP, SPS = (table_ref(S), table_ref(GR), table_ref(SN), table_ref(BT), table_ref(CB),
+                                  table_ref(SP), table_ref(SPS))  # callees take references (table_ref.py)
     SF, SI, SK, SC = Q.F, Q.I, Q.K, Q.C
     eps = S.epsilon
     out = 0
