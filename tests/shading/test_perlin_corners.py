@@ -1,7 +1,8 @@
 """The vectorised Perlin corners (perlin_corners.py: the 8 corners' lookup3 hashes and gradients
 as 8-lane LLVM code) equal the scalar hash_uint3/grad3 and hash_uint4/grad4, corner by corner and
 bit for bit, compiled against uncompiled, on lattice values that wrap 32 bits; and compiled
-perlin_3d equals a compiled perlin with the scalar corners. Against Cycles, Noise
+perlin_3d (a float32 cell, as Cycles' SSE path) equals its uncompiled float32 version bit for bit
+and the float64 scalar corners within rounding. Against Cycles, Noise
 Texture agreement is checked in test_noise_texture.py."""
 from __future__ import annotations
 
@@ -10,7 +11,8 @@ import numpy as np
 
 from volpath_native.shading.textures import perlin
 from volpath_native.shading.textures.hash import hash_uint3
-from volpath_native.shading.textures.perlin_corners import corner_gradients_3d, corner_gradients_4d
+from volpath_native.shading.textures.perlin_corners import (corner_gradients_3d, corner_gradients_4d,
+                                                              perlin_cell_3d)
 
 RNG = np.random.default_rng(5)
 EDGE = [0, 1, 0x7FFFFFFF, 0x80000000, 0xFFFFFFFF]
@@ -75,9 +77,23 @@ def _scalar_perlin_3d(x, y, z):
             + w * (v_1 * (v4 * u1 + v5 * u) + v * (v6 * u1 + v7 * u)))
 
 
-def test_perlin_3d_equals_scalar_corners_compiled():
-    """Bit for bit, compiled both: the vector corners change nothing in the image."""
+def test_perlin_3d_equals_its_uncompiled_float32_cell():
+    """Bit for bit: the compiled vector cell (perlin_cell_3d) and the uncompiled float32 one."""
     points = np.concatenate([RNG.normal(0, 50, (500, 3)), RNG.uniform(-1e5, 1e5, (100, 3))]).astype(np.float32)
     for p in points:
         args = [float(v) for v in p]
-        assert perlin.perlin_3d(*args) == _scalar_perlin_3d(*args), args
+        assert perlin.perlin_3d(*args) == perlin.perlin_3d.py_func(*args), args
+
+
+def test_perlin_3d_float32_is_within_rounding_of_float64():
+    """The float32 cell (Cycles' own precision) against the float64 scalar corners: a few ulps."""
+    points = RNG.normal(0, 50, (2000, 3)).astype(np.float32)
+    worst = max(abs(perlin.perlin_3d(*map(float, p)) - _scalar_perlin_3d(*map(float, p))) for p in points)
+    assert worst < 2e-6, worst
+
+
+def test_planted_corner_order_error_in_the_cell_is_caught():
+    """Swapping the y and z far corners in the float32 cell must change values."""
+    args = (7, 8, 11, 12, 13, 14, 0.3, 0.6, 0.2)
+    real = perlin_cell_3d(*args)
+    assert perlin_cell_3d(7, 8, 13, 14, 11, 12, 0.3, 0.2, 0.6) != real

@@ -11,7 +11,7 @@ import numpy as np
 
 from ...jit import inline_stage_kernel, stage_kernel
 from .hash import hash_uint, hash_uint2, MASK32
-from .perlin_corners import corner_gradients_3d, corner_gradients_4d
+from .perlin_corners import corner_gradients_4d, perlin_cell_3d
 
 #: noise.h noise_scale1..4 (experimental OSL constants), as the float32 Cycles multiplies by
 NOISE_SCALE_1D = float(np.float32(0.2500))
@@ -117,18 +117,13 @@ def perlin_2d(x, y):
 
 @stage_kernel
 def perlin_3d(x, y, z):
-    """noise.h `perlin_3d` (tri_mix; the corners hashed together, perlin_corners)."""
+    """noise.h `perlin_3d` in float32, as Cycles' SSE/AVX paths compute it (the corners' hashes,
+    gradients and the three mixes as vector code: perlin_corners.perlin_cell_3d)."""
     X, fx = floorfrac(x)
     Y, fy = floorfrac(y)
     Z, fz = floorfrac(z)
-    u = fade(fx)
-    v = fade(fy)
-    w = fade(fz)
-    X0, X1, Y0, Y1, Z0, Z1 = X & MASK32, (X + 1) & MASK32, Y & MASK32, (Y + 1) & MASK32, Z & MASK32, (Z + 1) & MASK32
-    v0, v1, v2, v3, v4, v5, v6, v7 = corner_gradients_3d(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz)
-    u1, v_1, w1 = 1.0 - u, 1.0 - v, 1.0 - w
-    return (w1 * (v_1 * (v0 * u1 + v1 * u) + v * (v2 * u1 + v3 * u))
-            + w * (v_1 * (v4 * u1 + v5 * u) + v * (v6 * u1 + v7 * u)))
+    return float(perlin_cell_3d(X & MASK32, (X + 1) & MASK32, Y & MASK32, (Y + 1) & MASK32, Z & MASK32,
+                                (Z + 1) & MASK32, fx, fy, fz))
 
 
 @stage_kernel

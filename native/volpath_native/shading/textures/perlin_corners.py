@@ -11,6 +11,7 @@ functions run the scalar code.
 """
 from __future__ import annotations
 
+import numpy as np
 from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic, overload
@@ -20,8 +21,10 @@ from .hash import MASK32, hash_uint3, hash_uint4
 LANES = 8
 _I32 = ir.IntType(32)
 _I64 = ir.IntType(64)
+_F32 = ir.FloatType()
 _F64 = ir.DoubleType()
 _VI32 = ir.VectorType(_I32, LANES)
+_VF32 = ir.VectorType(_F32, LANES)
 _VF64 = ir.VectorType(_F64, LANES)
 
 # util/hash.h: (rotated-into, xor-with, rotation) per line of `final` and `mix`
@@ -74,10 +77,10 @@ def _corner_keys(builder, lattice_pairs, init):
     return keys
 
 
-def _corner_offsets(builder, frac, axis):
+def _corner_offsets(builder, frac, axis, scalar=_F64, vector=_VF64):
     """The corner's offset along an axis: frac, or frac - 1 at the cell's far side."""
-    far = builder.fsub(frac, ir.Constant(_F64, 1.0))
-    return _lanes(builder, _VF64, [far if (i >> axis) & 1 else frac for i in range(LANES)])
+    far = builder.fsub(frac, ir.Constant(scalar, 1.0))
+    return _lanes(builder, vector, [far if (i >> axis) & 1 else frac for i in range(LANES)])
 
 
 def _negate_where(builder, h, bit, x):
@@ -116,6 +119,54 @@ def _corner_gradients_3d_x8(typingctx, X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz):
     return sig, codegen
 
 
+def _grad3_lanes(builder, h, x, y, z):
+    """noise.h grad3 on 8 lanes: u = h < 8 ? x : y; vt = (h == 12 || h == 14) ? x : z;
+    v = h < 4 ? y : vt; (h & 1 ? -u : u) + (h & 2 ? -v : v)."""
+    lt = lambda k: builder.icmp_unsigned("<", h, _splat_i32(k))  # noqa: E731
+    eq = lambda k: builder.icmp_unsigned("==", h, _splat_i32(k))  # noqa: E731
+    u = builder.select(lt(8), x, y)
+    v = builder.select(lt(4), y, builder.select(builder.or_(eq(12), eq(14)), x, z))
+    return builder.fadd(_negate_where(builder, h, 1, u), _negate_where(builder, h, 2, v))
+
+
+def _fade32(builder, t):
+    """noise.h fade in float32: (t * t * t) * (t * (t * 6 - 15) + 10)."""
+    c = lambda v: ir.Constant(_F32, v)  # noqa: E731
+    cube = builder.fmul(builder.fmul(t, t), t)
+    return builder.fmul(cube, builder.fadd(builder.fmul(t, builder.fsub(builder.fmul(t, c(6.0)), c(15.0))), c(10.0)))
+
+
+def _mix_lanes(builder, g, count, t):
+    """mix(a, b, t) = a + t (b - a) of the lane pairs (2i, 2i + 1) of g (count lanes -> count / 2)."""
+    even = builder.shuffle_vector(g, g, ir.Constant(ir.VectorType(_I32, count // 2), list(range(0, count, 2))))
+    odd = builder.shuffle_vector(g, g, ir.Constant(ir.VectorType(_I32, count // 2), list(range(1, count, 2))))
+    splat = _lanes(builder, ir.VectorType(_F32, count // 2), [t] * (count // 2))
+    return builder.fadd(even, builder.fmul(splat, builder.fsub(odd, even)))
+
+
+@intrinsic
+def _perlin_cell_3d_x8(typingctx, X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz):
+    """perlin_3d of one lattice cell in float32 as Cycles' SSE path computes it (noise.h
+    `perlin_3d`, `grad`, `tri_mix`: mix along x, then y, then z): the 8 corners' hashes and
+    gradients and the three mixes as vector code."""
+    sig = types.float32(types.int64, types.int64, types.int64, types.int64, types.int64, types.int64,
+                        types.float32, types.float32, types.float32)
+
+    def codegen(context, builder, signature, args):
+        init = 0xDEADBEEF + (3 << 2) + 13  # hash.h hash_uint3
+        a, b, c = _corner_keys(builder, ((args[0], args[1]), (args[2], args[3]), (args[4], args[5])), init)
+        h = builder.and_(_final(builder, {"a": a, "b": b, "c": c})["c"], _splat_i32(15))
+        x, y, z = (_corner_offsets(builder, args[6 + axis], axis, _F32, _VF32) for axis in range(3))
+        g = _grad3_lanes(builder, h, x, y, z)
+        u, v, w = (_fade32(builder, args[6 + axis]) for axis in range(3))
+        along_y = _mix_lanes(builder, _mix_lanes(builder, g, 8, u), 4, v)
+        z0 = builder.extract_element(along_y, ir.Constant(_I32, 0))
+        z1 = builder.extract_element(along_y, ir.Constant(_I32, 1))
+        return builder.fadd(z0, builder.fmul(w, builder.fsub(z1, z0)))
+
+    return sig, codegen
+
+
 @intrinsic
 def _corner_gradients_4d_x8(typingctx, X0, X1, Y0, Y1, Z0, Z1, W, fx, fy, fz, fw):
     sig = _GRADIENTS(types.int64, types.int64, types.int64, types.int64, types.int64, types.int64, types.int64,
@@ -140,10 +191,10 @@ def _corner_gradients_4d_x8(typingctx, X0, X1, Y0, Y1, Z0, Z1, W, fx, fy, fz, fw
     return sig, codegen
 
 
-def _corners(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz):
+def _corners(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz, one=1.0):
     """(X, Y, Z, offsets) of the 8 corners, x fastest then y then z (uncompiled)."""
     for i in range(LANES):
-        offsets = (fx - 1.0 if i & 1 else fx), (fy - 1.0 if i & 2 else fy), (fz - 1.0 if i & 4 else fz)
+        offsets = (fx - one if i & 1 else fx), (fy - one if i & 2 else fy), (fz - one if i & 4 else fz)
         yield (X1 if i & 1 else X0), (Y1 if i & 2 else Y0), (Z1 if i & 4 else Z0), offsets
 
 
@@ -172,4 +223,31 @@ def _compiled_corner_gradients_3d(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz):
 def _compiled_corner_gradients_4d(X0, X1, Y0, Y1, Z0, Z1, W, fx, fy, fz, fw):
     def impl(X0, X1, Y0, Y1, Z0, Z1, W, fx, fy, fz, fw):
         return _corner_gradients_4d_x8(X0, X1, Y0, Y1, Z0, Z1, W, float(fx), float(fy), float(fz), float(fw))
+    return impl
+
+
+def _fade32_scalar(t):
+    t = np.float32(t)
+    return (t * t * t) * (t * (t * np.float32(6.0) - np.float32(15.0)) + np.float32(10.0))
+
+
+def perlin_cell_3d(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz):
+    """perlin_3d of one lattice cell, float32 (uncompiled; the operations of the compiled vector
+    code in its order -- float64 arithmetic on float32 values rounded back is float32 arithmetic for
+    + - *, as 53 >= 2 x 24 + 2 bits -- so the two agree bit for bit)."""
+    from .perlin import grad3
+    f32 = np.float32
+    fx, fy, fz = f32(fx), f32(fy), f32(fz)
+    g = [f32(grad3.py_func(hash_uint3.py_func(X, Y, Z), *offsets))
+         for X, Y, Z, offsets in _corners(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz, one=f32(1.0))]
+    u, v, w = _fade32_scalar(fx), _fade32_scalar(fy), _fade32_scalar(fz)
+    along_x = [g[2 * i] + u * (g[2 * i + 1] - g[2 * i]) for i in range(4)]
+    along_y = [along_x[2 * i] + v * (along_x[2 * i + 1] - along_x[2 * i]) for i in range(2)]
+    return along_y[0] + w * (along_y[1] - along_y[0])
+
+
+@overload(perlin_cell_3d, jit_options={"cache": True})
+def _compiled_perlin_cell_3d(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz):
+    def impl(X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz):
+        return _perlin_cell_3d_x8(X0, X1, Y0, Y1, Z0, Z1, np.float32(fx), np.float32(fy), np.float32(fz))
     return impl
