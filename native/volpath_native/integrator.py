@@ -347,7 +347,10 @@ def warm_up(thorough: bool = False) -> float:
                   settings=RenderSettings(samples=1, threads=1))
     Integrator(scene).render_paths(np.arange(16) % 16, np.zeros(16, np.int64))
     from .render import _Film
-    _Film(1).add(np.zeros(1, np.int64), np.zeros((1, 3)))  # render()'s film sums (a compiled kernel)
+    # render()'s film sums (a compiled kernel): values as a worker process returns them (contiguous)
+    # and as a thread does (the RGB columns of its radiance array)
+    _Film(1).add(np.zeros(1, np.int64), np.zeros((1, 3)))
+    _Film(1).add(np.zeros(1, np.int64), np.zeros((1, 4))[:, :3])
     if not thorough:
         return time.perf_counter() - start
     lights = [PointLight("lamp", [0.0, 0.0, 2.5], power=100.0),
