@@ -85,7 +85,8 @@ D_CHANNEL, D_DISTANCE, D_MED_SELECT, D_MED_TECH, D_MED_T, D_MED_CHANNEL, D_MED_L
 D_MED_ROULETTE = 18  # its own Sobol' pair (18, 19)
 assert D_MED_ROULETTE < DIMS_PER_EVENT
 # pairs drawn together by _u2 (even offset, partner next)
-assert all(a % 2 == 0 and b == a + 1 for a, b in ((D_CHANNEL, D_DISTANCE), (D_MED_LU, D_MED_LV), (D_PHASE_U, D_PHASE_V),
+assert all(a % 2 == 0 and b == a + 1 for a, b in ((D_CHANNEL, D_DISTANCE), (D_MED_T, D_MED_CHANNEL),
+                                                  (D_MED_LU, D_MED_LV), (D_PHASE_U, D_PHASE_V),
                                                   (D_SURF_LU, D_SURF_LV), (D_BSDF_U, D_BSDF_V)))
 #: survival probability of a grid next-event vertex in a majorant cell that looked empty (see
 #: _empty_cell_survival)
@@ -670,7 +671,7 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
     row, sel = _select_in_segment(T, K, p, iteration, o, d, t_end)
     if row < 0:
         return n_shadow
-    u_t = _u(K, p, iteration, D_MED_T)
+    u_t, u_channel = _u2(K, p, iteration, D_MED_T)  # (D_MED_T, D_MED_CHANNEL): one Sobol' pair, one shuffle
     finite = np.isfinite(t_end)
     pc = channel_probabilities1(beta, ss, st, 1.0 if (st[0] > 0.0 or finite) else 0.0,
                                 1.0 if (st[1] > 0.0 or finite) else 0.0, 1.0 if (st[2] > 0.0 or finite) else 0.0)
@@ -691,7 +692,7 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
     if u_t >= 1.0 - prob_eq:  # one number picks the technique and its distance: both stay stratified
         t = equiangular_sample1(setup, _rescaled_above(u_t, 1.0 - prob_eq))
     else:
-        t = t_lit0 + sample_distance_truncated1(st, pc, _u(K, p, iteration, D_MED_CHANNEL), u_t / (1.0 - prob_eq),
+        t = t_lit0 + sample_distance_truncated1(st, pc, u_channel, u_t / (1.0 - prob_eq),
                                                 lit_length)
     if not np.isfinite(t):
         t = 0.0

@@ -84,6 +84,8 @@ def _accumulate(total, total_sq, count, pixel, values):
     resolution), in one pass that also zeroes components not within float32's range; returns how
     many samples had one (the numpy checks, copies and np.bincount passes this replaced were ~1 ms
     per 64k-path chunk: 5 % of a cheap-sample render)."""
+    if pixel.shape[0] == 0:
+        return 0
     lo, hi = pixel[0], pixel[0]
     for i in range(pixel.shape[0]):
         lo, hi = min(lo, pixel[i]), max(hi, pixel[i])
