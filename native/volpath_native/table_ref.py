@@ -9,8 +9,8 @@ absorber 53 %). A kernel wraps its tables once, `S = table_ref(S)`, and every ca
 one pointer and reads only the fields it uses; the tables do not change while a kernel runs.
 
 A TableRef reads like its table (`S.epsilon`, `S.rows[i]`; a nested table is read as a reference
-into it); anything else a NamedTuple allows
-(indexing, unpacking) is a typing error at compile time, not a silent copy.
+into it); anything else a NamedTuple allows (indexing, unpacking) is a typing error at compile
+time, not a silent copy.
 """
 from __future__ import annotations
 

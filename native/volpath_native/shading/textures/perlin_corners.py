@@ -104,19 +104,18 @@ def _corner_gradients_3d_x8(typingctx, X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz):
                      types.float64, types.float64, types.float64)
 
     def codegen(context, builder, signature, args):
-        init = 0xDEADBEEF + (3 << 2) + 13  # hash.h hash_uint3
-        a, b, c = _corner_keys(builder, ((args[0], args[1]), (args[2], args[3]), (args[4], args[5])), init)
-        h = builder.and_(_final(builder, {"a": a, "b": b, "c": c})["c"], _splat_i32(15))
         x, y, z = (_corner_offsets(builder, args[6 + axis], axis) for axis in range(3))
-        lt = lambda k: builder.icmp_unsigned("<", h, _splat_i32(k))  # noqa: E731
-        eq = lambda k: builder.icmp_unsigned("==", h, _splat_i32(k))  # noqa: E731
-        # noise.h grad3: u = h < 8 ? x : y; vt = (h == 12 || h == 14) ? x : z; v = h < 4 ? y : vt
-        u = builder.select(lt(8), x, y)
-        v = builder.select(lt(4), y, builder.select(builder.or_(eq(12), eq(14)), x, z))
-        g = builder.fadd(_negate_where(builder, h, 1, u), _negate_where(builder, h, 2, v))
+        g = _grad3_lanes(builder, _corner_hashes_3d(builder, args), x, y, z)
         return _to_tuple(context, builder, signature.return_type, g)
 
     return sig, codegen
+
+
+def _corner_hashes_3d(builder, args):
+    """hash_uint3 of the 8 corners (args: X0, X1, Y0, Y1, Z0, Z1, ...), masked to grad3's 4 bits."""
+    init = 0xDEADBEEF + (3 << 2) + 13  # hash.h hash_uint3
+    a, b, c = _corner_keys(builder, ((args[0], args[1]), (args[2], args[3]), (args[4], args[5])), init)
+    return builder.and_(_final(builder, {"a": a, "b": b, "c": c})["c"], _splat_i32(15))
 
 
 def _grad3_lanes(builder, h, x, y, z):
@@ -153,11 +152,8 @@ def _perlin_cell_3d_x8(typingctx, X0, X1, Y0, Y1, Z0, Z1, fx, fy, fz):
                         types.float32, types.float32, types.float32)
 
     def codegen(context, builder, signature, args):
-        init = 0xDEADBEEF + (3 << 2) + 13  # hash.h hash_uint3
-        a, b, c = _corner_keys(builder, ((args[0], args[1]), (args[2], args[3]), (args[4], args[5])), init)
-        h = builder.and_(_final(builder, {"a": a, "b": b, "c": c})["c"], _splat_i32(15))
         x, y, z = (_corner_offsets(builder, args[6 + axis], axis, _F32, _VF32) for axis in range(3))
-        g = _grad3_lanes(builder, h, x, y, z)
+        g = _grad3_lanes(builder, _corner_hashes_3d(builder, args), x, y, z)
         u, v, w = (_fade32(builder, args[6 + axis]) for axis in range(3))
         along_y = _mix_lanes(builder, _mix_lanes(builder, g, 8, u), 4, v)
         z0 = builder.extract_element(along_y, ir.Constant(_I32, 0))
