@@ -117,9 +117,11 @@ def _corner(G, px, py, pz):
     (the background, 0), as Cycles' linear interpolation (kernel/util/image_3d.h)."""
     nx, ny, nz = G.shape[0], G.shape[1], G.shape[2]
     inside = 0.0 <= px <= nx - 1 and 0.0 <= py <= ny - 1 and 0.0 <= pz <= nz - 1
-    i = min(max(int(np.floor(px)), 0), nx - 2)
-    j = min(max(int(np.floor(py)), 0), ny - 2)
-    k = min(max(int(np.floor(pz)), 0), nz - 2)
+    # int() truncates: floor for x >= 0, and below 0 both clamp to 0 (np.floor is a libm call
+    # on the portable target, shading/textures/perlin.py floorfrac)
+    i = min(max(int(px), 0), nx - 2)
+    j = min(max(int(py), 0), ny - 2)
+    k = min(max(int(pz), 0), nz - 2)
     return inside, i, j, k, px - i, py - j, pz - k
 
 
@@ -213,9 +215,9 @@ def majorant_cell(G, x, y, z):
     the box."""
     px, py, pz = _to_index(G, x, y, z)
     s, cs = G.index_to_cell, G.cell_shape
-    i = min(max(int(np.floor(px * s[0])), 0), cs[0] - 1)
-    j = min(max(int(np.floor(py * s[1])), 0), cs[1] - 1)
-    k = min(max(int(np.floor(pz * s[2])), 0), cs[2] - 1)
+    i = min(max(int(px * s[0]), 0), cs[0] - 1)  # truncation: see _corner
+    j = min(max(int(py * s[1]), 0), cs[1] - 1)
+    k = min(max(int(pz * s[2]), 0), cs[2] - 1)
     return i, j, k
 
 
@@ -231,26 +233,27 @@ def grid_cell_max_extinction(G, x, y, z):
 # DDA over majorant cells (pbrt-v4 DDAMajorantIterator, src/pbrt/media.h)
 # ---------------------------------------------------------------------------------------------
 @stage_kernel
-def _slab(o, d, hi):
-    """Parametric [near, far] of one axis slab [0, hi] for a ray coordinate o + d t."""
+def _slab(o, d, inv, hi):
+    """Parametric [near, far] of one axis slab [0, hi] for a ray coordinate o + d t (inv = 1 / d:
+    one division per axis for _slab and _axis_start, divisions were most of _dda_start's time)."""
     if d == 0.0:
         if 0.0 <= o <= hi:
             return -np.inf, np.inf
         return np.inf, -np.inf
-    t0, t1 = (0.0 - o) / d, (hi - o) / d
+    t0, t1 = -o * inv, (hi - o) * inv
     return min(t0, t1), max(t0, t1)
 
 
 @stage_kernel
-def _axis_start(o, d, t_enter, cells):
-    """Cell, next boundary crossing, crossing spacing and step along one axis at t_enter."""
+def _axis_start(o, d, inv, t_enter, cells):
+    """Cell, next boundary crossing, crossing spacing and step along one axis at t_enter (inv = 1 / d)."""
     p = o + d * t_enter
-    cell = min(max(int(np.floor(p)), 0), cells - 1)
+    cell = min(max(int(p), 0), cells - 1)  # truncation: see _corner
     if d == 0.0:
         return cell, np.inf, np.inf, 0
     if d > 0.0:
-        return cell, t_enter + (cell + 1 - p) / d, 1.0 / d, 1
-    return cell, t_enter + (cell - p) / d, -1.0 / d, -1
+        return cell, t_enter + (cell + 1 - p) * inv, inv, 1
+    return cell, t_enter + (cell - p) * inv, -inv, -1
 
 
 @stage_kernel
@@ -291,16 +294,19 @@ def _dda_start(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
     vx = (m[0, 0] * dx + m[0, 1] * dy + m[0, 2] * dz) * s[0]
     vy = (m[1, 0] * dx + m[1, 1] * dy + m[1, 2] * dz) * s[1]
     vz = (m[2, 0] * dx + m[2, 1] * dy + m[2, 2] * dz) * s[2]
-    n0, f0 = _slab(px, vx, cs[0])
-    n1, f1 = _slab(py, vy, cs[1])
-    n2, f2 = _slab(pz, vz, cs[2])
+    ix = 1.0 / vx if vx != 0.0 else 0.0
+    iy = 1.0 / vy if vy != 0.0 else 0.0
+    iz = 1.0 / vz if vz != 0.0 else 0.0
+    n0, f0 = _slab(px, vx, ix, cs[0])
+    n1, f1 = _slab(py, vy, iy, cs[1])
+    n2, f2 = _slab(pz, vz, iz, cs[2])
     t_enter = max(max(n0, n1), max(n2, t_min))
     t_exit = min(min(f0, f1), min(f2, t_max))
     if not t_enter < t_exit:  # misses the box (or an empty segment): nothing to walk
         return False, t_exit, t_exit, 0, 0, 0, np.inf, np.inf, np.inf, np.inf, np.inf, np.inf, 0, 0, 0
-    cx, nx, ex, sx = _axis_start(px, vx, t_enter, cs[0])
-    cy, ny, ey, sy = _axis_start(py, vy, t_enter, cs[1])
-    cz, nz, ez, sz = _axis_start(pz, vz, t_enter, cs[2])
+    cx, nx, ex, sx = _axis_start(px, vx, ix, t_enter, cs[0])
+    cy, ny, ey, sy = _axis_start(py, vy, iy, t_enter, cs[1])
+    cz, nz, ez, sz = _axis_start(pz, vz, iz, t_enter, cs[2])
     return True, t_enter, t_exit, cx, cy, cz, nx, ny, nz, ex, ey, ez, sx, sy, sz
 
 

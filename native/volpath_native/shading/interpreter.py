@@ -467,9 +467,9 @@ def _attribute(attributes, world_to_index, channel, px, py, pz):
     nx, ny, nz = attributes.shape[0], attributes.shape[1], attributes.shape[2]
     if not (0.0 <= x <= nx - 1 and 0.0 <= y <= ny - 1 and 0.0 <= z <= nz - 1) or nx < 2 or ny < 2 or nz < 2:
         return 0.0
-    i = min(int(math.floor(x)), nx - 2)
-    j = min(int(math.floor(y)), ny - 2)
-    k = min(int(math.floor(z)), nz - 2)
+    i = min(int(x), nx - 2)  # x >= 0 here: truncation is the floor, without libm's call
+    j = min(int(y), ny - 2)
+    k = min(int(z), nz - 2)
     fx, fy, fz = x - i, y - j, z - k
     total = 0.0
     for dx in range(2):
