@@ -11,6 +11,8 @@ from native_helpers import chi2_critical, rotated_transform
 from volpath_native.grid_kernels import (FLAG_BUDGET, TRACKING_BUDGET, grid_free_flight, grid_scattering,
                                          grid_transmittance)
 from volpath_native.grid_medium import GridMedium
+from volpath_native.sample_pattern import path_key1
+from volpath_native.sampling import seed_key
 
 Z_LIMIT = 4.0
 
@@ -104,6 +106,29 @@ def test_grid_free_flight_scatter_distances_follow_the_exponential_pdf():
     assert expected.min() > 50
     chi2 = np.sum((observed - expected) ** 2 / expected)
     assert chi2 < chi2_critical(len(observed) - 1), (chi2, observed, expected)
+
+
+def _one_per_stratum(u):
+    """Each of the len(u) equal strata of [0, 1) holds exactly one of the numbers u."""
+    return np.array_equal(np.sort(np.floor(np.asarray(u) * len(u)).astype(np.int64)), np.arange(len(u)))
+
+
+def test_first_collision_distances_are_stratified_over_a_pixels_samples():
+    """The first tentative collision of a tracking call is the path's Sobol' number (grid_kernels
+    QMC_DRAWS), so over a pixel's first 2^k samples the exponential's uniforms 1 - exp(-sigma_t t)
+    fall one per stratum of width 2^-k (a (0, 2)-sequence's first coordinate); independent numbers
+    (the planted error: what tracking drew before) almost never do."""
+    sigma_s, sigma_a, n = 2.0, 0.5, 16
+    medium = GridMedium("const", np.ones((n, n, n), np.float32), np.eye(4), sigma_s, sigma_a)
+    count = 256
+    origins, dirs = np.tile([0.5, 0.5, 0.5], (count, 1)), np.tile(np.array([1.0, 1.0, 1.0]) / np.sqrt(3), (count, 1))
+    length = float(np.sqrt(3) * (n - 2))  # optical depth 58: every path collides
+    keys = np.array([path_key1(seed_key(7), 1234, s) for s in range(count)], np.uint64)
+    t, scattered, weight = np.empty(count), np.empty(count, np.bool_), np.empty((count, 3))
+    _free_flights(medium.tables, origins, dirs, np.full(count, length), keys, 5 << 20, t, scattered, weight)
+    assert scattered.all()  # sigma_n = 0: the first collision is real
+    assert _one_per_stratum(1.0 - np.exp(-(sigma_s + sigma_a) * t))
+    assert not _one_per_stratum(np.random.default_rng(5).random(count))
 
 
 def test_grid_scattering_is_the_sigma_s_of_coefficients():
