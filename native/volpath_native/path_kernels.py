@@ -659,6 +659,21 @@ def _equiangular_setup_if(prob_eq, T, u_light, row, o, d, t_lit0, t_lit1, time):
 
 
 @inline_stage_kernel
+def _equiangular_share(D, pc, st, g):
+    """How often a segment's next event draws its distance equiangularly rather than by distance
+    (one-sample MIS: any share that depends on the segment alone keeps it unbiased). Equiangular
+    sampling is nearly proportional to the integrand where transmittance and phase hardly vary
+    across its peak (width ~D): light well within a mean free path of the ray (sigma D small) and a
+    flat phase function. Cycles' fixed 1/2 (shade_volume.h volume_integrate_state_init) doubles the
+    weight of segments passing close to a lamp, the heavy tail of the spot row (README, session
+    17); dense media and peaked phases (the integrand then follows the phase, which distance
+    sampling places better near the ray's start) keep ~1/2."""
+    sigma = pc[0] * st[0] + pc[1] * st[1] + pc[2] * st[2]
+    flat = 1.0 - abs(g)
+    return 0.5 + 0.5 * flat * flat * np.exp(-sigma * D)
+
+
+@inline_stage_kernel
 def _weighted_equiangular_pdf(prob_eq, setup, t):
     """prob_eq x the equiangular pdf of distance t: 0 without evaluating a placeholder setup."""
     return prob_eq * equiangular_pdf1(setup, t) if prob_eq > 0.0 else 0.0
@@ -686,6 +701,8 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
         return n_shadow
     u_light = _u2(K, p, iteration, D_MED_LU)  # the light sample's pair, also the equiangular centre's
     setup = _equiangular_setup_if(prob_eq, T, u_light, row, o, d, t_lit0, t_lit1, F[p, TIME])
+    if 0.0 < prob_eq < 1.0:
+        prob_eq = _equiangular_share(setup[1], pc, st, g)
     # Both techniques stay on the lit part [t_lit0, t_lit1]: the light reaches nothing else (Cycles
     # volume_integrate_homogeneous samples its direct distance on that interval too).
     lit_length = t_lit1 - t_lit0

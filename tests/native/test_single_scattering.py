@@ -190,3 +190,22 @@ def test_volume_bounce_limit_has_cycles_meaning():
     errs = [np.sqrt(r.variance.sum(axis=(0, 1))) / SIZE ** 2 for r in imgs]
     assert np.all(means[1] - means[0] > Z_LIMIT * np.hypot(errs[1], errs[0])), (means, errs)
     assert np.all(means[2] - means[1] > -Z_LIMIT * np.hypot(errs[2], errs[1]))
+
+
+def test_equiangular_share_follows_how_flat_the_segment_is():
+    """The next event's equiangular share (path_kernels._equiangular_share): ~1 where the light is
+    far within a mean free path of the ray and the phase is isotropic, 1/2 (Cycles' fixed share) in
+    dense media and for peaked phases, never outside [1/2, 1] (a share of 0 or 1 drops a technique;
+    the quadrature test above checks the mixture stays unbiased, and its variance is what the share
+    changes: README, session 17)."""
+    from volpath_native.path_kernels import _equiangular_share
+
+    grey = (1.0 / 3.0,) * 3
+    thin, dense = (0.25,) * 3, (50.0,) * 3
+    assert _equiangular_share(0.01, grey, thin, 0.0) > 0.99
+    assert abs(_equiangular_share(1.0, grey, dense, 0.0) - 0.5) < 1e-9
+    assert _equiangular_share(0.01, grey, thin, 0.9) < 0.51
+    assert _equiangular_share(0.01, grey, thin, -0.9) < 0.51
+    shares = [_equiangular_share(D, grey, thin, g) for D in (0.0, 0.5, 2.0, 8.0) for g in (0.0, 0.4)]
+    assert all(0.5 <= s <= 1.0 for s in shares)
+    assert shares[0] > shares[2] > shares[4] > shares[6] and shares[1] > shares[3]  # falls with sigma D
