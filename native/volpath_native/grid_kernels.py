@@ -8,10 +8,10 @@ Conventions are those of grid_medium (read its module docstring): padded float32
 (kernel/integrator/shade_volume.h, volume_null_event_coefficients / volume_scatter_probability).
 
 Random numbers: tracking a ray draws number j = 0, 1, 2, ... of its stream (stream + j); the
-caller reserves STREAM_DIMENSIONS of them per stream, more than the step budget can use. The first
-QMC_DRAWS are the path's Owen-scrambled Sobol' numbers (sample_pattern.sample2: a collision's
-distance and its scatter decision are one 2-D pair, stratified over the pixel's samples), the rest
-independent hashes (sampling.uniform1). Cycles draws every step's distance from its sampler too
+caller reserves STREAM_DIMENSIONS of them per stream, more than the step budget can use. In free
+flight the first QMC_DRAWS are the path's Owen-scrambled Sobol' numbers (sample_pattern.sample2: a
+collision's distance and its scatter decision are one 2-D pair, stratified over the pixel's
+samples), the rest independent hashes (sampling.uniform1); shadow rays' tracking draws hashes only. Cycles draws every step's distance from its sampler too
 (kernel/integrator/shade_volume.h volume_integrate_advance: PRNG_VOLUME_SCATTER_DISTANCE, the
 offset advanced per step).
 
@@ -92,7 +92,8 @@ STREAM_DIMENSIONS = 1 << 20
 #: collision's distance and scatter decision. Error per sample at 128 spp x 6 seeds, independent ->
 #: 2 Sobol' draws: fire 0.169 -> 0.158, noise cloud 0.050 -> 0.044, height fog 0.175 -> 0.160, smoke
 #: 0.047 -> 0.043, 128^3 cloud 0.0165 -> 0.0154; 4 or 16 draws gave the same (within the seeds'
-#: spread) for more hashing (sample2 ~16 ns, uniform1 ~3 ns).
+#: spread) for more hashing (sample2 ~16 ns, uniform1 ~3 ns), and so did Sobol' draws for the
+#: shadow rays' residual ratio tracking too (noise cloud 0.0444 / 0.0443, 128^3 cloud 0.0154 / 0.0149).
 QMC_DRAWS = 2
 #: Tentative collisions one tracking call may take (see the module docstring).
 TRACKING_BUDGET = 1 << 14
@@ -424,11 +425,11 @@ def grid_box_interval(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
 
 
 @inline_stage_kernel
-def _draw(key, stream, j, partner):
-    """(number j of a tracking stream, the partner to pass to the next draw): the first QMC_DRAWS
-    are Sobol' pairs (stream is even: draws 2i and 2i + 1 are one pair, both coordinates hashed
-    once at 2i, the second handed on), the rest independent (the module docstring)."""
-    if j < QMC_DRAWS:
+def _draw(key, stream, j, partner, qmc):
+    """(number j of a tracking stream, the partner to pass to the next draw): with qmc the first
+    QMC_DRAWS are Sobol' pairs (stream is even: draws 2i and 2i + 1 are one pair, both coordinates
+    hashed once at 2i, the second handed on), the rest independent (the module docstring)."""
+    if qmc and j < QMC_DRAWS:
         if j % 2 == 0:
             return sample2(key, np.uint64(stream) + np.uint64(j))
         return partner, 0.0
@@ -470,8 +471,9 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
     # collision (exact by memorylessness, as a fresh draw per cell is; it spares the hash and the
     # log per crossed cell, most of a walk's cost when cells are small and collisions rare).
     depth_left = partner = 0.0
+    qmc = mode == 0  # free flight only (QMC_DRAWS)
     if active:
-        u, partner = _draw(key, stream, draws, 0.0)
+        u, partner = _draw(key, stream, draws, 0.0, qmc)
         depth_left = -np.log1p(-u)
     draws += 1
     while active:
@@ -526,7 +528,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                 prob = (pr * (ssr / (ssr + anr) if ssr + anr > 0.0 else 0.0)
                         + pg * (ssg / (ssg + ang) if ssg + ang > 0.0 else 0.0)
                         + pb * (ssb / (ssb + anb) if ssb + anb > 0.0 else 0.0))
-                u, partner = _draw(key, stream, draws, partner)  # this collision's distance's partner
+                u, partner = _draw(key, stream, draws, partner, qmc)  # this collision's distance's partner
                 draws += 1
                 if u < prob:
                     f = inv / prob
@@ -568,7 +570,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                 if _ended(G, wr, wg, wb):
                     return t_max, False, 0.0, 0.0, 0.0, er, eg, eb
             # the next collision's optical depth, drawn once this one has not ended the walk
-            u, partner = _draw(key, stream, draws, partner)
+            u, partner = _draw(key, stream, draws, partner, qmc)
             depth_left = -np.log1p(-u)
             draws += 1
         else:  # step into the next cell along the nearest crossing (pbrt-v4 Next())
