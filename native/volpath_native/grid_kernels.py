@@ -11,9 +11,9 @@ Random numbers: tracking a ray draws number j = 0, 1, 2, ... of its stream (stre
 caller reserves STREAM_DIMENSIONS of them per stream, more than the step budget can use. In free
 flight the first QMC_DRAWS are the path's Owen-scrambled Sobol' numbers (sample_pattern.sample2: a
 collision's distance and its scatter decision are one 2-D pair, stratified over the pixel's
-samples), the rest independent hashes (sampling.uniform1); shadow rays' tracking draws hashes only. Cycles draws every step's distance from its sampler too
-(kernel/integrator/shade_volume.h volume_integrate_advance: PRNG_VOLUME_SCATTER_DISTANCE, the
-offset advanced per step).
+samples), the rest independent hashes (sampling.uniform1); shadow rays' tracking draws hashes
+only. Cycles draws every step's distance from its sampler (kernel/integrator/shade_volume.h
+volume_integrate_advance: PRNG_VOLUME_SCATTER_DISTANCE, the offset advanced per step).
 
 Step budget (the defined outcome for extreme majorants, e.g. a Density typed as inf, which Blender
 stores as FLT_MAX): a tracking call whose tentative collisions -- those taken plus those expected in
