@@ -664,10 +664,11 @@ def _equiangular_share(D, pc, st, g):
     (one-sample MIS: any share that depends on the segment alone keeps it unbiased). Equiangular
     sampling is nearly proportional to the integrand where transmittance and phase hardly vary
     across its peak (width ~D): light well within a mean free path of the ray (sigma D small) and a
-    flat phase function. Cycles' fixed 1/2 (shade_volume.h volume_integrate_state_init) doubles the
-    weight of segments passing close to a lamp, the heavy tail of the spot row (README, session
-    17); dense media and peaked phases (the integrand then follows the phase, which distance
-    sampling places better near the ray's start) keep ~1/2."""
+    flat phase function. With Cycles' fixed 1/2 (shade_volume.h volume_integrate_state_init) a
+    segment passing close to a point lamp weighs its equiangular samples twice (distance sampling
+    spreads over the whole segment; README, session 17); dense media and peaked phases (the
+    integrand then follows the phase, which distance sampling places better near the ray's start)
+    keep ~1/2."""
     sigma = pc[0] * st[0] + pc[1] * st[1] + pc[2] * st[2]
     flat = 1.0 - abs(g)
     return 0.5 + 0.5 * flat * flat * np.exp(-sigma * D)
