@@ -20,6 +20,19 @@ from .triangle_geometry import corner_bounds
 
 MISS = -1
 NO_INSTANCE = -1
+#: Embree geometry masks (Accelerator(see_through=...)): geometry no shadow ray passes, and null
+#: boundaries / possibly transparent surfaces, which shadow rays cross. A shadow ray first asks
+#: whether anything opaque lies on it (one occlusion query with MASK_OPAQUE) and only the rays it
+#: does not find blocked step through the boundaries with closest hits of MASK_SEE_THROUGH: Cycles
+#: likewise finds a shadow ray's transparent hits in one any-hit traversal that stops at the first
+#: opaque one (kernel/bvh/shadow_all.h) instead of one traversal per crossed boundary.
+MASK_OPAQUE = np.uint32(1)
+MASK_SEE_THROUGH = np.uint32(2)
+ALL_MASK = np.uint32(0xFFFFFFFF)
+#: static world triangles form one Embree geometry per run of triangles of one class; more runs
+#: than this (materials alternating face by face) keep one geometry, masked see-through when any
+#: of its triangles is (the opaque query then skips it: conservative, only slower)
+MAX_MASK_RUNS = 256
 
 
 @dataclass
@@ -50,9 +63,12 @@ class Accelerator:
     table and the volume stacks index world triangles); moving ones as deforming world meshes
     whose vertex steps follow the interpolated transform."""
 
-    def __init__(self, meshes: list[Mesh], materials: list | None = None, camera_samples: int | None = None):
+    def __init__(self, meshes: list[Mesh], materials: list | None = None, camera_samples: int | None = None,
+                 see_through=None):
         """camera_samples: pixels x samples the render will trace, which picks Embree's build
-        quality (build_quality); None: Cycles' MEDIUM."""
+        quality (build_quality); None: Cycles' MEDIUM. see_through: per material, whether shadow
+        rays may cross its surfaces (null boundaries, transparency): the geometry is then masked by
+        class (MASK_OPAQUE / MASK_SEE_THROUGH, `masked` True); None: every geometry in ALL_MASK."""
         world, prototypes = [], []
         self.warnings: list[str] = []
         self._copy_motion = {}  # id(world copy of a moving instance) -> (its frame's transform, its steps)
@@ -133,6 +149,10 @@ class Accelerator:
         self._corners = None
         self._embree = None
         self.build_quality = build_quality(n, camera_samples)
+        self.masked = see_through is not None
+        see_through = np.asarray(see_through if see_through is not None else [], bool)
+        self._see_through = (see_through[self.material_ids] if len(see_through) and n
+                             else np.zeros(n, bool))  # per triangle (materials as scene_tables reads them)
         if n:
             # Embree reads self.vertices / self.triangles in place (they live as long as self):
             # the world triangles in the top scene, each prototype's range in a scene of its own
@@ -140,11 +160,12 @@ class Accelerator:
             self._embree = TriangleScene(self.build_quality)
             deforming = {first: (mesh, keep) for first, (mesh, keep) in self._deforming.items()}
             static = min([self.world_triangle_count] + [f for f in deforming if f < self.world_triangle_count])
-            if static:
-                self._embree.add_triangles(self.vertices, self.triangles[:static], 0)
+            for start, end, mask in self._mask_runs(0, static):
+                self._embree.add_triangles(self.vertices, self.triangles[start:end], start, mask)
             for first, (mesh, keep) in deforming.items():
                 if first < self.world_triangle_count:
-                    self._embree.add_triangles(list(mesh.vertex_motion), _kept(mesh.triangles, keep), first)
+                    self._embree.add_triangles(list(mesh.vertex_motion), _kept(mesh.triangles, keep), first,
+                                               self._class_mask(first, first + len(_kept(mesh.triangles, keep))))
             for first, count, placements in self._prototype_ranges:
                 prototype = TriangleScene(self.build_quality)
                 if first in deforming:
@@ -154,8 +175,24 @@ class Accelerator:
                     prototype.add_triangles(self.vertices, self.triangles[first:first + count], 0)
                 prototype.commit()
                 for steps in placements:
-                    self._embree.add_instance(prototype, steps, first)
+                    self._embree.add_instance(prototype, steps, first, self._class_mask(first, first + count))
             self._embree.commit()
+
+    def _class_mask(self, start: int, end: int) -> int:
+        """The Embree mask of a geometry holding triangles [start, end): see-through if any is."""
+        if not self.masked:
+            return int(ALL_MASK)
+        return int(MASK_SEE_THROUGH if self._see_through[start:end].any() else MASK_OPAQUE)
+
+    def _mask_runs(self, start: int, end: int) -> list:
+        """[(start, end, mask)]: triangles [start, end) split into runs of one class (MAX_MASK_RUNS)."""
+        if end <= start:
+            return []
+        cuts = np.nonzero(np.diff(self._see_through[start:end].astype(np.int8)))[0] + 1 + start if self.masked else []
+        if len(cuts) >= MAX_MASK_RUNS:
+            cuts = []
+        bounds = [start, *map(int, cuts), end]
+        return [(a, b, self._class_mask(a, b)) for a, b in zip(bounds[:-1], bounds[1:])]
 
     def _deformation_tables(self, tris: list, kept_meshes: list):
         """Deforming meshes (Mesh.vertex_motion): per triangle [first row, steps, stride, has
@@ -374,15 +411,16 @@ class Accelerator:
             low[i], high[i] = np.minimum(low[i], c.min(axis=0)), np.maximum(high[i], c.max(axis=0))
         return low, high
 
-    def intersect_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray, times=None) -> Hits:
+    def intersect_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray, times=None, mask=ALL_MASK) -> Hits:
         """Closest hits for contiguous float32 rays as the compiled stages use them: t is Embree's
         float32 tfar (meaningless on a miss: check prim >= 0), no conversions. times: the rays'
-        shutter times in [0, 1] (None: 0; only moving geometry reads them)."""
+        shutter times in [0, 1] (None: 0; only moving geometry reads them); mask: the geometry
+        classes the rays see (MASK_*)."""
         n = len(o32)
         if self._embree is None or n == 0:
             return Hits(t32.copy(), np.full(n, MISS, np.int32), np.zeros(n, np.float32), np.zeros(n, np.float32),
                         np.full(n, NO_INSTANCE, np.int32))
-        t, prim, inst, u, v = self._embree.intersect(o32, d32, t32, times)
+        t, prim, inst, u, v = self._embree.intersect(o32, d32, t32, times, mask)
         return Hits(t, prim, u, v, inst)
 
     @property
@@ -390,11 +428,12 @@ class Accelerator:
         """The Embree scene (embree.TriangleScene), None when there are no triangles."""
         return self._embree
 
-    def occluded_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray, times=None) -> np.ndarray:
-        """True where something blocks the contiguous float32 ray before t32 (at `times`)."""
+    def occluded_raw(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray, times=None, mask=ALL_MASK) -> np.ndarray:
+        """True where geometry of the `mask` classes blocks the contiguous float32 ray before t32
+        (at `times`)."""
         if self._embree is None or len(o32) == 0:
             return np.zeros(len(o32), dtype=bool)
-        return self._embree.occluded(o32, d32, t32, times)
+        return self._embree.occluded(o32, d32, t32, times, mask)
 
     def geometric_normals(self, prim: np.ndarray, inst=None) -> np.ndarray:
         """Outward unit geometric normals of hits, in world space."""

@@ -19,7 +19,7 @@ import numpy as np
 
 from . import path_kernels as pk
 from . import wavefront
-from .accel import Accelerator
+from .accel import ALL_MASK, MASK_OPAQUE, MASK_SEE_THROUGH, Accelerator
 from .bsdfs import bsdf_tables
 from .bsdfs.closures import new_closure_buffer
 from .bsdfs.nodes import surface_node_table
@@ -119,7 +119,9 @@ class Integrator:
         self.settings = scene.settings
         film = scene.film
         self.accel = Accelerator(scene.meshes, scene.materials,
-                                 camera_samples=int(film.width) * int(film.height) * max(int(scene.settings.samples), 1))
+                                 camera_samples=int(film.width) * int(film.height) * max(int(scene.settings.samples), 1),
+                                 see_through=np.array([m.surface == "null" or _may_pass_shadows(m)
+                                                       for m in scene.materials], bool))
         self.lights = LightSet(scene, self.accel)
         self.media = MediaTable(scene, self.accel)
         self.camera = CameraModel(scene.camera, scene.film)
@@ -156,12 +158,27 @@ class Integrator:
             geom_base=embree.geom_base if embree is not None else np.zeros(1, np.int32),
             inst_base=embree.inst_base if embree is not None else np.zeros(1, np.int32),
             inst_index=embree.inst_index if embree is not None else np.zeros(1, np.int32),
-            has_motion=bool(self.accel.has_motion))
+            has_motion=bool(self.accel.has_motion), masked=bool(self.accel.masked))
         self._thread_buffers = threading.local()
+        # whether shadow rays ask about opaque geometry first (wavefront.CULL_DECISION_SHADOWS)
+        self._cull_state = wavefront.new_cull_state(self.accel.masked)
         # Set by request_stop() to abandon the batches in flight: grid tracking (the only per-path
         # work without a bound in time) polls it. Anonymous shared memory, so forked render
         # workers see the parent's write.
         self._stop = np.frombuffer(mmap.mmap(-1, 8), dtype=np.int64)
+
+    @property
+    def culls_opaque_first(self):
+        """Whether shadow rays ask about opaque geometry first (wavefront.CULL_DECISION_SHADOWS):
+        True, False, or None while undecided."""
+        decided = int(self._cull_state[wavefront.CULL_DECIDED])
+        return None if decided == wavefront.CULL_UNDECIDED else bool(decided)
+
+    def set_cull_opaque_first(self, cull):
+        """Fix the choice (True / False) or start deciding anew (None); the image is the same."""
+        self._cull_state[:] = wavefront.new_cull_state(self.accel.masked)
+        if cull is not None:
+            self._cull_state[wavefront.CULL_DECIDED] = int(bool(cull) and self.accel.masked)
 
     def request_stop(self, stop: bool = True):
         """Make render_paths calls in flight (any thread or forked worker) end soon: they raise
@@ -220,17 +237,17 @@ class Integrator:
         grid_tables += (_no_grid_tables(),) * max(GRID_SLOTS - len(grid_tables), 0)
         if cancel is not None and cancel():
             raise Cancelled()
+        counts = np.zeros(wavefront.N_COUNTS, np.int64)
         if stepwise:
-            self._trace_stepwise(buffers, grid_tables, live, F, I, K, C, o32, d32, t32, L, alive, margin, stats,
+            self._trace_stepwise(buffers, grid_tables, live, F, I, K, C, o32, d32, t32, L, alive, margin, counts,
                                  cancel)
         else:
-            counts = np.zeros(wavefront.N_COUNTS, np.int64)
             wavefront.trace_batch(self.tables, self.lights.tables, grid_tables, self.surface_nodes, self.bsdf_tables,
                                   buffers.closures, self.surface_programs, buffers.surface, self._ray_queries,
                                   buffers.hits, live, F, I, K, C, o32, d32, t32, alive, L, buffers.queue,
-                                  self.has_null, margin, self._stop, counts)
-            stats.update(vertices=int(counts[wavefront.VERTICES]), rays=int(counts[wavefront.RAYS]),
-                         shadow_rays=int(counts[wavefront.SHADOW_RAYS]))
+                                  self.has_null, margin, self._stop, counts, self._cull_state)
+        stats.update(vertices=int(counts[wavefront.VERTICES]), rays=int(counts[wavefront.RAYS]),
+                     shadow_rays=int(counts[wavefront.SHADOW_RAYS]))
         if cancel is not None and cancel():
             raise Cancelled()  # tracking may have been abandoned part-way: discard the batch
         stats["dropped"] = int(L[:, 3].sum())
@@ -238,49 +255,59 @@ class Integrator:
                                    dtype=np.int64)
         return L[:, :3], stats
 
-    def _trace_stepwise(self, buffers, grid_tables, n, F, I, K, C, o32, d32, t32, L, alive, margin, stats, cancel):
-        """wavefront.trace_batch's loop with each stage called from Python."""
+    def _trace_stepwise(self, buffers, grid_tables, n, F, I, K, C, o32, d32, t32, L, alive, margin, counts, cancel):
+        """wavefront.trace_batch's loop with each stage called from Python (counts: its N_COUNTS)."""
         Q = buffers.queue
-        counter = np.zeros(1, np.int64)
         iteration = 0
         while n:
             if cancel is not None and cancel():
                 raise Cancelled()
             hits = self.accel.intersect_raw(o32[:n], d32[:n], t32[:n], self._times(F, pk.TIME, n))
-            stats["rays"] += n
+            counts[wavefront.RAYS] += n
             m = pk.shade(self.tables, self.lights.tables, grid_tables, self.surface_nodes, self.bsdf_tables,
                          buffers.closures, self.surface_programs, buffers.surface, n, iteration, F, I, K, C, hits.t,
-                         hits.prim, hits.inst, hits.u, hits.v, L, alive, Q, counter, o32, d32, t32)
-            self._trace_shadows(grid_tables, buffers, Q, m, margin, L, stats, iteration, cancel)
+                         hits.prim, hits.inst, hits.u, hits.v, L, alive, Q,
+                         counts[wavefront.VERTICES:wavefront.VERTICES + 1], o32, d32, t32)
+            self._trace_shadows(grid_tables, buffers, Q, m, margin, L, counts, iteration, cancel)
             n = pk.compact(F, I, K, C, n, alive, o32, d32, t32)
             iteration += 1
-        stats["vertices"] = int(counter[0])
 
     def _times(self, fields: np.ndarray, column: int, n: int):
         """The shutter times of n queued rays for Embree (None when nothing in the scene moves)."""
         return fields[:n, column].astype(np.float32) if self.accel.has_motion else None
 
-    def _trace_shadows(self, grid_tables, buffers, Q, m, margin, L, stats, iteration, cancel=None):
+    def _trace_shadows(self, grid_tables, buffers, Q, m, margin, L, counts, iteration, cancel=None):
         """Transmittance of queued shadow rays, added to L where the light is reached."""
         if not m:
             return
         if not self.has_null:
             blocked = self.accel.occluded_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m], self._times(Q.F, pk.S_TIME, m))
-            stats["shadow_rays"] += m
+            counts[wavefront.SHADOW_RAYS] += m
             pk.shadow_unoccluded(Q.F, Q.I, m, blocked, margin, L)
             return
+        queued, state = m, self._cull_state
+        learning = state[wavefront.CULL_DECIDED] == wavefront.CULL_UNDECIDED
+        mask = ALL_MASK
+        if self.accel.masked and state[wavefront.CULL_DECIDED] == 1:  # opaque first, then only see-through
+            blocked = self.accel.occluded_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m], self._times(Q.F, pk.S_TIME, m),
+                                              MASK_OPAQUE)
+            counts[wavefront.SHADOW_RAYS] += m
+            m = pk.drop_blocked(Q, m, blocked)
+            mask = MASK_SEE_THROUGH
         for step in range(pk.MAX_VOLUME_BOUNDS):
             if not m:
-                return
+                break
             if cancel is not None and cancel():
                 raise Cancelled()
-            hits = self.accel.intersect_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m], self._times(Q.F, pk.S_TIME, m))
-            stats["shadow_rays"] += m
+            hits = self.accel.intersect_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m], self._times(Q.F, pk.S_TIME, m), mask)
+            counts[wavefront.SHADOW_RAYS] += m
             m = pk.shadow_step(self.tables, grid_tables, self.surface_nodes, self.bsdf_tables, buffers.closures,
                                self.surface_programs, buffers.surface, Q, m, hits.t, hits.prim, hits.inst, hits.u, hits.v,
-                               margin, L, iteration, step)
+                               margin, L, iteration, step,
+                               state[wavefront.CULL_BLOCKED_STEPS:wavefront.CULL_BLOCKED_STEPS + 1])
         # rays still crossing boundaries after the limit count as blocked (Cycles VOLUME_BOUNDS_MAX)
-
+        if learning:
+            wavefront.learn_cull(state, queued)
 
 
 class _Buffers:

@@ -1174,12 +1174,14 @@ def shadow_unoccluded(SF, SI, m, blocked, margin, L):
 
 @stage_kernel
 def shadow_step(S, GR, SN, BT, CB, SP, SPS, Q, m, hit_t, hit_prim, hit_inst, hit_u, hit_v, margin, L, iteration,
-                step):
+                step, blocked_steps):
     """One closest-hit step of shadow rays through null boundaries and transparent surfaces:
     attenuate the segment, stop at opaque geometry (T = 0) or at the light (add contrib x T),
     cross null boundaries (the volume stack and the segment's sigma_t change) and transparent
     surfaces (x their transparency, Cycles shade_shadow.h / surface_shader_transparency). Returns
-    how many rays continue (in place at the front of the queue, their rays rewritten)."""
+    how many rays continue (in place at the front of the queue, their rays rewritten);
+    blocked_steps[0] += the steps each ray stopped by opaque geometry took (wavefront: whether an
+    opaque-only occlusion query first would pay)."""
     S, GR, SN, BT, CB, SP, SPS = (table_ref(S), table_ref(GR), table_ref(SN), table_ref(BT), table_ref(CB),
                                   table_ref(SP), table_ref(SPS))  # callees take references (table_ref.py)
     SF, SI, SK, SC = Q.F, Q.I, Q.K, Q.C
@@ -1189,6 +1191,7 @@ def shadow_step(S, GR, SN, BT, CB, SP, SPS, Q, m, hit_t, hit_prim, hit_inst, hit
         hit = hit_prim[q] >= 0
         prim = hit_prim[q] if hit else 0
         if hit and not (S.tri_null[prim] or S.tri_transparent[prim]):
+            blocked_steps[0] += step + 1
             continue  # blocked by opaque geometry
         seg = hit_t[q] if hit else SF[q, S_REMAINING]
         length = seg + SF[q, S_LEAD] + (0.0 if hit else margin)
@@ -1236,6 +1239,24 @@ def shadow_step(S, GR, SN, BT, CB, SP, SPS, Q, m, hit_t, hit_prim, hit_inst, hit
         if out != q:
             _move_entry(SF, SI, SK, SC, q, out)
         _write_ray(SF, out, S_O, S_D, S_REMAINING, Q.o32, Q.d32, Q.t32, out)
+        out += 1
+    return out
+
+
+@stage_kernel
+def drop_blocked(Q, m, blocked):
+    """Keep the shadow rays not blocked (an opaque occluder found: accel.MASK_OPAQUE), in their
+    order at the front of the queue, rays included; returns how many. Their random streams are
+    keyed by path and purpose, not by queue slot, so the image is the one without this cull."""
+    out = 0
+    for q in range(m):
+        if blocked[q]:
+            continue
+        if out != q:
+            _move_entry(Q.F, Q.I, Q.K, Q.C, q, out)
+            _move_row(Q.o32, q, out)
+            _move_row(Q.d32, q, out)
+            Q.t32[out] = Q.t32[q]
         out += 1
     return out
 

@@ -91,6 +91,7 @@ _SIGNATURES = {
     "rtcReleaseGeometry": (None, [_VP]),
     "rtcCommitGeometry": (None, [_VP]),
     "rtcSetGeometryBuildQuality": (None, [_VP, ctypes.c_int]),
+    "rtcSetGeometryMask": (None, [_VP, _U]),
     "rtcSetSharedGeometryBuffer": (None, [_VP, ctypes.c_int, _U, ctypes.c_int, _VP, _SZ, _SZ, _SZ]),
     "rtcSetGeometryTimeStepCount": (None, [_VP, _U]),
     "rtcSetGeometryInstancedScene": (None, [_VP, _VP]),

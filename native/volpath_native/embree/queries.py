@@ -31,21 +31,22 @@ def new_rayhit() -> np.ndarray:
 
 
 @stage_kernel
-def _set_ray(f, w, o, d, i, tfar, time):
+def _set_ray(f, w, o, d, i, tfar, time, mask):
     f[RAY_ORG], f[RAY_ORG + 1], f[RAY_ORG + 2] = o[i, 0], o[i, 1], o[i, 2]
     f[RAY_TNEAR] = 0.0
     f[RAY_DIR], f[RAY_DIR + 1], f[RAY_DIR + 2] = d[i, 0], d[i, 1], d[i, 2]
     f[RAY_TIME] = time
     f[RAY_TFAR] = tfar
-    w[RAY_MASK] = ALL_MASK
+    w[RAY_MASK] = mask
     w[RAY_ID] = 0
     w[RAY_FLAGS] = 0
 
 
 @stage_kernel
 def intersect_rays(scene, rayhit, o, d, tfar, times, geom_base, inst_base, inst_index, t_out, prim_out, inst_out, u_out,
-                   v_out):
-    """Closest hit of rays i < len(o) within (0, tfar[i]] at times[i] (times empty: time 0).
+                   v_out, mask):
+    """Closest hit of rays i < len(o) within (0, tfar[i]] at times[i] (times empty: time 0) among
+    the geometries whose mask shares a bit with `mask` (rtcSetGeometryMask; ALL_MASK: all).
     t_out = the hit distance (tfar[i] on a miss), prim_out = geom_base[geomID] + primID for
     world-space geometry or inst_base[instID] + primID inside an instance (-1 on a miss),
     inst_out = inst_index[instID], the instance's own number (-1: none), u_out / v_out =
@@ -55,7 +56,7 @@ def intersect_rays(scene, rayhit, o, d, tfar, times, geom_base, inst_base, inst_
     address = rayhit.ctypes.data
     timed = times.shape[0] > 0
     for i in range(o.shape[0]):
-        _set_ray(f, w, o, d, i, tfar[i], times[i] if timed else np.float32(0.0))
+        _set_ray(f, w, o, d, i, tfar[i], times[i] if timed else np.float32(0.0), mask)
         w[HIT_GEOM] = INVALID
         w[HIT_INST] = INVALID
         _rtc_intersect1(scene, address, 0)
@@ -77,13 +78,14 @@ def intersect_rays(scene, rayhit, o, d, tfar, times, geom_base, inst_base, inst_
 
 
 @stage_kernel
-def occluded_rays(scene, ray, o, d, tfar, times, blocked):
-    """blocked[i] = whether anything lies on ray i within (0, tfar[i]) at times[i]."""
+def occluded_rays(scene, ray, o, d, tfar, times, blocked, mask):
+    """blocked[i] = whether any geometry whose mask shares a bit with `mask` lies on ray i within
+    (0, tfar[i]) at times[i]."""
     f = ray
     w = ray.view(np.uint32)
     address = ray.ctypes.data
     timed = times.shape[0] > 0
     for i in range(o.shape[0]):
-        _set_ray(f, w, o, d, i, tfar[i], times[i] if timed else np.float32(0.0))
+        _set_ray(f, w, o, d, i, tfar[i], times[i] if timed else np.float32(0.0), mask)
         _rtc_occluded1(scene, address, 0)
         blocked[i] = f[RAY_TFAR] < 0.0  # rtcOccluded1 sets tfar to -inf on a hit

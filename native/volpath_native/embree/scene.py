@@ -8,7 +8,7 @@ import numpy as np
 
 from ..scene import padded_rows
 from . import library as lib
-from .queries import intersect_rays, new_rayhit, occluded_rays
+from .queries import ALL_MASK, intersect_rays, new_rayhit, occluded_rays
 
 # Build quality: MEDIUM, as Cycles for static scenes (bvh/embree.cpp: HIGH only with spatial
 # splits, LOW for dynamic scenes); robust triangle tests (Cycles sets RTC_SCENE_FLAG_ROBUST too,
@@ -39,9 +39,10 @@ def _check(what: str):
         raise EmbreeError(f"Embree: {what}: error {code}: {(message or b'').decode(errors='replace')}")
 
 
-def _triangle_geometry(vertex_steps: list, triangles: np.ndarray, quality: int):
+def _triangle_geometry(vertex_steps: list, triangles: np.ndarray, quality: int, mask: int):
     """A triangle geometry over shared buffers: one vertex buffer per time step."""
     geometry = lib.api.NewGeometry(device(), lib.GEOMETRY_TYPE_TRIANGLE)
+    lib.api.SetGeometryMask(geometry, mask)
     if len(vertex_steps) > 1:
         lib.api.SetGeometryTimeStepCount(geometry, len(vertex_steps))
     for slot, vertices in enumerate(vertex_steps):
@@ -70,8 +71,9 @@ class TriangleScene:
     add_triangles(vertices (or a list of S per-step vertex arrays), triangles, first) attaches a
     geometry whose primitive i is reported as triangle first + i; add_instance(prototype,
     transforms (S, 3, 4), first) one instance whose hits report first + the prototype's triangle
-    and the instance's number (0, 1, ... in the order added). commit() builds the BVH; intersect / occluded query contiguous
-    float32 rays."""
+    and the instance's number (0, 1, ... in the order added); `mask` is the geometry's Embree mask
+    (a ray sees it when their masks share a bit). commit() builds the BVH; intersect / occluded
+    query contiguous float32 rays."""
 
     def __init__(self, quality: int = lib.BUILD_QUALITY_MEDIUM, flags: int = lib.SCENE_FLAG_ROBUST):
         self._scene = lib.api.NewScene(device())
@@ -84,11 +86,11 @@ class TriangleScene:
         self.instance_count = 0
         self.committed = False
 
-    def add_triangles(self, vertices, triangles: np.ndarray, first: int) -> int:
+    def add_triangles(self, vertices, triangles: np.ndarray, first: int, mask: int = int(ALL_MASK)) -> int:
         steps = vertices if isinstance(vertices, (list, tuple)) else [vertices]
         steps = [padded_rows(v) for v in steps]
         triangles = np.ascontiguousarray(triangles, dtype=np.int32).reshape(-1, 3).view(np.uint32)
-        geometry = _triangle_geometry(steps, triangles, self.quality)
+        geometry = _triangle_geometry(steps, triangles, self.quality, mask)
         geom_id = lib.api.AttachGeometry(self._scene, geometry)
         lib.api.ReleaseGeometry(geometry)  # the scene holds it
         _check("attach")
@@ -96,12 +98,14 @@ class TriangleScene:
         self._set(self._geom_base, geom_id, first)
         return geom_id
 
-    def add_instance(self, prototype: "TriangleScene", transforms: np.ndarray, first: int) -> int:
+    def add_instance(self, prototype: "TriangleScene", transforms: np.ndarray, first: int,
+                     mask: int = int(ALL_MASK)) -> int:
         """An instance of `prototype` (committed) with object -> world transforms (S, 3, 4) at S
         equally spaced times over [0, 1] (S = 1: static). Motion is interpolated decomposed
         (rtcSetGeometryTransformQuaternion, as Cycles' bvh/embree.cpp add_instance)."""
         transforms = np.asarray(transforms, np.float64).reshape(-1, 3, 4)
         geometry = lib.api.NewGeometry(device(), lib.GEOMETRY_TYPE_INSTANCE)
+        lib.api.SetGeometryMask(geometry, mask)
         lib.api.SetGeometryInstancedScene(geometry, prototype._scene)
         if len(transforms) == 1:
             matrix = np.ascontiguousarray(transforms[0], np.float32)
@@ -140,19 +144,20 @@ class TriangleScene:
         """The RTCScene, for compiled queries (embree/queries.py)."""
         return self._scene
 
-    def intersect(self, o32, d32, t32, times=None):
-        """(t, prim, instance, u, v) of the closest hits: t = t32 on a miss, prim -1 on a miss."""
+    def intersect(self, o32, d32, t32, times=None, mask=ALL_MASK):
+        """(t, prim, instance, u, v) of the closest hits among the geometries whose mask shares a
+        bit with `mask`: t = t32 on a miss, prim -1 on a miss."""
         n = len(o32)
         t = np.empty(n, np.float32)
         prim, inst = np.empty(n, np.int32), np.empty(n, np.int32)
         u, v = np.zeros(n, np.float32), np.zeros(n, np.float32)
         intersect_rays(self._scene, new_rayhit(), o32, d32, t32, _times(times), self.geom_base, self.inst_base,
-                       self.inst_index, t, prim, inst, u, v)
+                       self.inst_index, t, prim, inst, u, v, np.uint32(mask))
         return t, prim, inst, u, v
 
-    def occluded(self, o32, d32, t32, times=None) -> np.ndarray:
+    def occluded(self, o32, d32, t32, times=None, mask=ALL_MASK) -> np.ndarray:
         blocked = np.empty(len(o32), bool)
-        occluded_rays(self._scene, new_rayhit(), o32, d32, t32, _times(times), blocked)
+        occluded_rays(self._scene, new_rayhit(), o32, d32, t32, _times(times), blocked, np.uint32(mask))
         return blocked
 
 
