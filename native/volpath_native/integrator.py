@@ -25,6 +25,7 @@ from .bsdfs.closures import new_closure_buffer
 from .bsdfs.nodes import surface_node_table
 from .camera import CameraModel, crop_window
 from .film import PixelFilter
+from .glow_guide import glow_table
 from .grid_medium import GridMedium
 from .grid_slots import GRID_SLOTS  # the grid tuple is padded to this many (grid_slots.py)
 from .lights import LightSet
@@ -95,7 +96,8 @@ def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable) -> pk.Scen
         volume_bounces=int(st.volume_bounces), glossy_bounces=int(st.glossy_bounces),
         transmission_bounces=int(st.transmission_bounces), transparent_bounces=int(st.transparent_bounces),
         rr_min_bounces=int(st.russian_roulette_min_bounces),
-        volume_sampling=pk.VOLUME_SAMPLING[st.volume_sampling])
+        volume_sampling=pk.VOLUME_SAMPLING[st.volume_sampling],
+        glow=glow_table(scene.lights, media))
 
 
 def _may_pass_shadows(material) -> bool:

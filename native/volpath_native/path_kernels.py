@@ -35,6 +35,7 @@ from .film import filter_offset1
 from .grid_kernels import STREAM_DIMENSIONS
 from .grid_slots import (slot_attenuation, slot_cell_max_extinction, slot_free_flight, slot_g, slot_nee_distance_pdf,
                          slot_nee_distance_sample_pdf, slot_scattering, slot_transmittance)
+from .glow_guide import GLOW_SHARE, glow_pdf, glow_sample, guided_label, surface_has_delta
 from .jit import inline_stage_kernel, stage_kernel
 from .light_kernels import (TRIANGLE, equiangular_centre, lamp_crossing_unselected, light_has_position,
                             sample_light_selected, triangle_emission_unselected, triangle_sample_barycentrics)
@@ -108,7 +109,7 @@ SceneTables = namedtuple("SceneTables", [
     "vol_grid", "has_grids",
     "epsilon", "any_medium", "max_bounces", "diffuse_bounces", "volume_bounces", "glossy_bounces",
     "transmission_bounces", "transparent_bounces", "rr_min_bounces",
-    "volume_sampling"])
+    "volume_sampling", "glow"])  # glow: glow_guide.GlowTable
 
 
 @stage_kernel
@@ -922,6 +923,9 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
         return False, n_shadow
     above = (pb[0] + n_face[0] * eps, pb[1] + n_face[1] * eps, pb[2] + n_face[2] * eps)
     below = (pb[0] - n_face[0] * eps, pb[1] - n_face[1] * eps, pb[2] - n_face[2] * eps)
+    # bounce directions partly toward lamps glowing in a medium (glow_guide): both techniques
+    # below weigh against the mixture pdf
+    guide = S.glow.count > 0 and not surface_has_delta(CB, count)
     # light selection at (pb, ns): Cycles' sd->P, sd->N, transmitting closures see both sides
     mis_mode = MODE_SURFACE_TRANSMIT if surface_is_transmissive(CB, count) else MODE_SURFACE
     row, sel = tree_select(T.tree, _u(K, p, iteration, D_SURF_SELECT), pb[0], pb[1], pb[2], ns[0], ns[1], ns[2], 0.0,
@@ -933,6 +937,8 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
         wi = (wx, wy, wz)
         v0, v1, v2 = _textured_light_value(S, T, SP, SPS, row, u1, u2, wi, (v0, v1, v2), F[p, TIME])
         f, bsdf_pdf = surface_eval(CB, count, BT, wi_view, wi, ns, n_face)
+        if guide:
+            bsdf_pdf = (1.0 - GLOW_SHARE) * bsdf_pdf + GLOW_SHARE * glow_pdf(S.glow, pb, wi)
         if _max3(f) > 0.0:
             w = power_heuristic(light_pdf, bsdf_pdf) if light_pdf > 0.0 else 1.0
             contrib = _scale3(_mul3(_mul3(beta, f), (v0, v1, v2)), w)
@@ -945,8 +951,21 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
                     cross_boundary(S, Q.C, q, prim, front)
                     _set3(Q.F, q, S_ST, stack_sigma_t(S, Q.C, q))
     u_bsdf, v_bsdf = _u2(K, p, iteration, D_BSDF_U)
-    wo, weight, pdf, label = surface_sample(CB, count, BT, wi_view, ns, n_face, _u(K, p, iteration, D_SURF_PICK),
-                                            u_bsdf, v_bsdf)
+    u_pick = _u(K, p, iteration, D_SURF_PICK)
+    if guide and u_pick < GLOW_SHARE:  # toward a glowing lamp (the pick number rescaled picks it)
+        wo, ok = glow_sample(S.glow, pb, u_pick / GLOW_SHARE, u_bsdf, v_bsdf)
+        f, bsdf_pdf = surface_eval(CB, count, BT, wi_view, wo, ns, n_face)
+        pdf = (1.0 - GLOW_SHARE) * bsdf_pdf + GLOW_SHARE * glow_pdf(S.glow, pb, wo)
+        label = guided_label(CB, count, wo, n_face) if ok and pdf > 0.0 and _max3(f) > 0.0 else 0
+        weight = _scale3(f, 1.0 / pdf) if label != 0 else (0.0, 0.0, 0.0)
+    else:
+        if guide:
+            u_pick = min((u_pick - GLOW_SHARE) / (1.0 - GLOW_SHARE), 1.0 - 1e-16)
+        wo, weight, pdf, label = surface_sample(CB, count, BT, wi_view, ns, n_face, u_pick, u_bsdf, v_bsdf)
+        if guide and pdf > 0.0:  # a rough direction: weighed against the mixture
+            mixture = (1.0 - GLOW_SHARE) * pdf + GLOW_SHARE * glow_pdf(S.glow, pb, wo)
+            weight = _scale3(weight, pdf / mixture)
+            pdf = mixture
     if label == 0:
         return False, n_shadow
     _set3(F, p, BETA, _mul3(beta, weight))

@@ -117,9 +117,9 @@ def trace(row: str, pixel: int, sample: int, seed: int) -> None:
                   f"contribution {queue.F[q, pk.S_CONTRIB:pk.S_CONTRIB + 3].round(4)}")
         return queued
 
-    def traced_shadows(self, grid_tables, buffers, Q, m, margin, L, counts, iteration, cull, cancel=None):
+    def traced_shadows(self, grid_tables, buffers, Q, m, margin, L, counts, iteration, cancel=None):
         before = L[0, :3].copy()
-        shadows(self, grid_tables, buffers, Q, m, margin, L, counts, iteration, cull, cancel)
+        shadows(self, grid_tables, buffers, Q, m, margin, L, counts, iteration, cancel)
         if m:
             print(f"  after its shadow rays: radiance {before.round(4)} -> {L[0, :3].round(4)}")
 

@@ -1,0 +1,153 @@
+"""Bounce directions guided toward delta lamps that sit in a scattering medium (their glow).
+
+Light a medium scatters around a point or spot lamp without radius reaches a surface point x along
+directions near the lamp's with radiance ~ sigma_s I / (r theta) (theta: the angle between the
+direction and the lamp's, r: the lamp's distance): the in-scattered light of a ray passing the lamp
+at D = r theta, which the ray's equiangular next event estimates well, is ~1/D. BSDF sampling
+draws theta with a density ~theta near 0, so a bounce's estimate has a second moment ~ the
+integral of 1/theta: it diverges logarithmically, and a handful of bounces held a tenth of some
+rows' squared error (README, session 18: the glass of liquid's worst pixel, a floor bounce passing
+4.7 mm from the spot). Cycles draws such bounces from the BSDF alone; its float32 clip of segments
+to a spot's cone loses the nearest ones (a small bias, README session 17), VolPath keeps them.
+
+The remedy: at surface vertices whose closures have no delta lobe, a share GLOW_SHARE of the
+bounce directions is drawn from a cone of half-angle GLOW_CONE around one glowing lamp's direction
+(picked by power x sigma_s at the lamp), theta uniform -- a solid-angle density
+1 / (2 pi GLOW_CONE sin theta), ~1/theta like the glow -- and the rest from the BSDF; every
+direction is weighted by the mixture's pdf (one-sample MIS with the balance heuristic, Veach 1997
+sect. 9.2.4): unbiased, and the glow's contribution near the lamp is bounded. Light sampling at
+the same vertex weighs its directions against the same mixture pdf, so the two techniques for
+hittable emitters still sum to one. Media around the lamp are read at the lamp's position
+(homogeneous volumes and the world's); vertices inside media (phase sampling) are not guided.
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from .bsdfs.closures import CLOSURE_TRANSPARENT, LABEL_DIFFUSE, LABEL_GLOSSY, LABEL_REFLECT, LABEL_TRANSMIT
+from .bsdfs.closures import _is_diffuse_kind
+from .bsdfs.microfacet import is_singular
+from .jit import inline_stage_kernel
+
+#: the share of bounce directions drawn toward glowing lamps where any glow
+GLOW_SHARE = 0.1
+#: half-angle (radians) of the cone around a lamp's direction those directions fill
+GLOW_CONE = 0.2
+
+# count: glowing lamps (0: no guiding); position (K, 3); cdf (K,) of the pick by glow strength
+GlowTable = namedtuple("GlowTable", ["count", "position", "cdf"])
+
+
+def glow_table(lights, media, camera_position=None) -> GlowTable:
+    """The delta point and spot lamps (radius 0) with scattering medium at their position: a
+    homogeneous volume's (MediaTable.stack_at) or the world's. Weight: mean power x mean sigma_s."""
+    from .scene import PointLight  # SpotLight derives from it
+    lamps = [light for light in lights if isinstance(light, PointLight) and float(light.radius) <= 0.0]
+    positions, weights = [], []
+    if lamps and media.any_medium:
+        points = np.array([np.asarray(light.position, np.float64) for light in lamps]).reshape(-1, 3)
+        stacks = media.stack_at(points)
+        for light, point, stack in zip(lamps, points, stacks):
+            sigma_s = np.array(media.world_sigma_s, np.float64)
+            for v in range(media.n_volumes):
+                if stack[v] > 0 and not media.volume_is_grid[v]:
+                    sigma_s = sigma_s + media.sigma_s[v]
+            weight = float(np.mean(light.power)) * float(np.mean(sigma_s))
+            if weight > 0.0 and np.isfinite(weight):
+                positions.append(point)
+                weights.append(weight)
+    if not positions:
+        return GlowTable(0, np.zeros((1, 3)), np.ones(1))
+    cdf = np.cumsum(weights) / np.sum(weights)
+    cdf[-1] = 1.0
+    return GlowTable(len(positions), np.ascontiguousarray(positions, np.float64), np.ascontiguousarray(cdf))
+
+
+@inline_stage_kernel
+def surface_has_delta(CB, count):
+    """Whether a closure of the hit is a delta (transparent, or a microfacet lobe too smooth to
+    evaluate): such vertices are not guided (a guided direction cannot sample the delta)."""
+    for i in range(count):
+        kind = CB.kind[i]
+        if kind == CLOSURE_TRANSPARENT:
+            return True
+        if not _is_diffuse_kind(kind) and is_singular(CB.alpha_x[i], CB.alpha_y[i]):
+            return True
+    return False
+
+
+@inline_stage_kernel
+def guided_label(CB, count, wo, n_face):
+    """The bounce kind of a guided direction (bounce limits): transmission below the surface,
+    diffuse if the hit has a diffuse closure, glossy otherwise (Cycles labels by the sampled
+    closure, which a guided direction does not have)."""
+    side = LABEL_TRANSMIT if wo[0] * n_face[0] + wo[1] * n_face[1] + wo[2] * n_face[2] < 0.0 else LABEL_REFLECT
+    for i in range(count):
+        if _is_diffuse_kind(CB.kind[i]):
+            return side | LABEL_DIFFUSE
+    return side | LABEL_GLOSSY
+
+
+@inline_stage_kernel
+def _cone_pdf(axis, wo):
+    """Solid-angle density of a direction drawn with theta uniform on [0, GLOW_CONE] around axis."""
+    c = axis[0] * wo[0] + axis[1] * wo[1] + axis[2] * wo[2]
+    cx = axis[1] * wo[2] - axis[2] * wo[1]
+    cy = axis[2] * wo[0] - axis[0] * wo[2]
+    cz = axis[0] * wo[1] - axis[1] * wo[0]
+    s = np.sqrt(cx * cx + cy * cy + cz * cz)
+    theta = np.arctan2(s, c)
+    if not (theta < GLOW_CONE and s > 0.0):
+        return 0.0
+    return 1.0 / (2.0 * np.pi * GLOW_CONE * s)
+
+
+@inline_stage_kernel
+def _axis_to(G, k, x):
+    dx, dy, dz = G.position[k, 0] - x[0], G.position[k, 1] - x[1], G.position[k, 2] - x[2]
+    r = np.sqrt(dx * dx + dy * dy + dz * dz)
+    if not r > 0.0:
+        return (0.0, 0.0, 1.0), False
+    return (dx / r, dy / r, dz / r), True
+
+
+@inline_stage_kernel
+def glow_pdf(G, x, wo):
+    """The guide's solid-angle density of direction wo from x (the lamps' mixture)."""
+    total = 0.0
+    previous = 0.0
+    for k in range(G.count):
+        axis, ok = _axis_to(G, k, x)
+        if ok:
+            total += (G.cdf[k] - previous) * _cone_pdf(axis, wo)
+        previous = G.cdf[k]
+    return total
+
+
+@inline_stage_kernel
+def glow_sample(G, x, u_pick, u1, u2):
+    """A direction from x toward the cone around a lamp picked with u_pick: ((x, y, z), ok)."""
+    k = G.count - 1
+    for j in range(G.count):
+        if u_pick < G.cdf[j]:
+            k = j
+            break
+    axis, ok = _axis_to(G, k, x)
+    if not ok:
+        return axis, False
+    theta = GLOW_CONE * u1
+    phi = 2.0 * np.pi * u2
+    # an orthonormal frame around the axis (Duff et al. 2017)
+    sign = 1.0 if axis[2] >= 0.0 else -1.0
+    a = -1.0 / (sign + axis[2])
+    b = axis[0] * axis[1] * a
+    t = (1.0 + sign * axis[0] * axis[0] * a, sign * b, -sign * axis[0])
+    bt = (b, sign + axis[1] * axis[1] * a, -axis[1])
+    st, ct = np.sin(theta), np.cos(theta)
+    cp, sp = np.cos(phi), np.sin(phi)
+    wo = (ct * axis[0] + st * (cp * t[0] + sp * bt[0]),
+          ct * axis[1] + st * (cp * t[1] + sp * bt[1]),
+          ct * axis[2] + st * (cp * t[2] + sp * bt[2]))
+    return wo, True
