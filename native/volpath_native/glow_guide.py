@@ -17,8 +17,13 @@ bounce directions is drawn from a cone of half-angle GLOW_CONE around one glowin
 direction is weighted by the mixture's pdf (one-sample MIS with the balance heuristic, Veach 1997
 sect. 9.2.4): unbiased, and the glow's contribution near the lamp is bounded. Light sampling at
 the same vertex weighs its directions against the same mixture pdf, so the two techniques for
-hittable emitters still sum to one. Media around the lamp are read at the lamp's position
-(homogeneous volumes and the world's); vertices inside media (phase sampling) are not guided.
+hittable emitters still sum to one. Medium vertices in homogeneous media with one phase lobe mix
+the same guide, toward the lamps held by the same volumes as the vertex only (a lamp in the fog
+is no help to a vertex inside a milky glass sphere in that fog: measured, the glass of liquid's
+error per sample rose 0.61 -> 0.66 when they were guided); their next events weigh against that
+mixture too. Grid
+media and phase mixtures are not guided. Media around the lamp are read at the lamp's position
+(homogeneous volumes and the world's).
 """
 from __future__ import annotations
 
@@ -29,40 +34,47 @@ import numpy as np
 from .bsdfs.closures import CLOSURE_TRANSPARENT, LABEL_DIFFUSE, LABEL_GLOSSY, LABEL_REFLECT, LABEL_TRANSMIT
 from .bsdfs.closures import _is_diffuse_kind
 from .bsdfs.microfacet import is_singular
-from .jit import inline_stage_kernel
+from .jit import inline_stage_kernel, stage_kernel
 
 #: the share of bounce directions drawn toward glowing lamps where any glow
 GLOW_SHARE = 0.1
 #: half-angle (radians) of the cone around a lamp's direction those directions fill
 GLOW_CONE = 0.2
 
-# count: glowing lamps (0: no guiding); position (K, 3); cdf (K,) of the pick by glow strength
-GlowTable = namedtuple("GlowTable", ["count", "position", "cdf"])
+# count: glowing lamps (0: no guiding); position (K, 3); cdf (K,) of the pick by glow strength;
+# stack (K, V): the volumes holding the lamp (MediaTable.stack_at's counters; none: the world's medium)
+GlowTable = namedtuple("GlowTable", ["count", "position", "cdf", "stack"])
 
 
-def glow_table(lights, media, camera_position=None) -> GlowTable:
+def no_glow() -> GlowTable:
+    """A table without lamps: no bounce is guided."""
+    return GlowTable(0, np.zeros((1, 3)), np.ones(1), np.zeros((1, 1), np.int8))
+
+
+def glow_table(lights, media) -> GlowTable:
     """The delta point and spot lamps (radius 0) with scattering medium at their position: a
     homogeneous volume's (MediaTable.stack_at) or the world's. Weight: mean power x mean sigma_s."""
     from .scene import PointLight  # SpotLight derives from it
     lamps = [light for light in lights if isinstance(light, PointLight) and float(light.radius) <= 0.0]
-    positions, weights = [], []
+    positions, weights, stacks_kept = [], [], []
     if lamps and media.any_medium:
         points = np.array([np.asarray(light.position, np.float64) for light in lamps]).reshape(-1, 3)
         stacks = media.stack_at(points)
         for light, point, stack in zip(lamps, points, stacks):
-            sigma_s = np.array(media.world_sigma_s, np.float64)
-            for v in range(media.n_volumes):
-                if stack[v] > 0 and not media.volume_is_grid[v]:
-                    sigma_s = sigma_s + media.sigma_s[v]
+            inside = [v for v in range(media.n_volumes) if stack[v] > 0 and not media.volume_is_grid[v]]
+            sigma_s = np.array(media.world_sigma_s, np.float64) if not inside else \
+                np.sum([media.sigma_s[v] for v in inside], axis=0)
             weight = float(np.mean(light.power)) * float(np.mean(sigma_s))
             if weight > 0.0 and np.isfinite(weight):
                 positions.append(point)
                 weights.append(weight)
+                stacks_kept.append(stack)
     if not positions:
-        return GlowTable(0, np.zeros((1, 3)), np.ones(1))
+        return no_glow()
     cdf = np.cumsum(weights) / np.sum(weights)
     cdf[-1] = 1.0
-    return GlowTable(len(positions), np.ascontiguousarray(positions, np.float64), np.ascontiguousarray(cdf))
+    return GlowTable(len(positions), np.ascontiguousarray(positions, np.float64), np.ascontiguousarray(cdf),
+                     np.ascontiguousarray(stacks_kept, np.int8))
 
 
 @inline_stage_kernel
@@ -99,9 +111,9 @@ def _cone_pdf(axis, wo):
     cz = axis[0] * wo[1] - axis[1] * wo[0]
     s = np.sqrt(cx * cx + cy * cy + cz * cz)
     theta = np.arctan2(s, c)
-    if not (theta < GLOW_CONE and s > 0.0):
+    if not theta < GLOW_CONE:
         return 0.0
-    return 1.0 / (2.0 * np.pi * GLOW_CONE * s)
+    return 1.0 / (2.0 * np.pi * GLOW_CONE * max(s, 1e-12))  # the lamp's own direction: weight ~0
 
 
 @inline_stage_kernel
@@ -151,3 +163,63 @@ def glow_sample(G, x, u_pick, u1, u2):
           ct * axis[1] + st * (cp * t[1] + sp * bt[1]),
           ct * axis[2] + st * (cp * t[2] + sp * bt[2]))
     return wo, True
+
+
+@inline_stage_kernel
+def _glows_here(G, k, C, p):
+    """Whether lamp k glows in the medium of path p: the same volumes hold both (a vertex inside a
+    glass sphere within the lamp's fog is not helped: its bounce must first leave the sphere)."""
+    for j in range(C.shape[1]):
+        if (C[p, j] > 0) != (G.stack[k, j] > 0):
+            return False
+    return True
+
+
+@stage_kernel
+def medium_glow_share(G, C, p):
+    """The probability of the lamps glowing in path p's medium among all (0: no guiding here)."""
+    total = 0.0
+    previous = 0.0
+    for k in range(G.count):
+        if _glows_here(G, k, C, p):
+            total += G.cdf[k] - previous
+        previous = G.cdf[k]
+    return total
+
+
+@stage_kernel
+def medium_glow_pdf(G, C, p, share, x, wo):
+    """glow_pdf over the lamps glowing in path p's medium (renormalised by their share)."""
+    total = 0.0
+    previous = 0.0
+    for k in range(G.count):
+        if _glows_here(G, k, C, p):
+            axis, ok = _axis_to(G, k, x)
+            if ok:
+                total += (G.cdf[k] - previous) * _cone_pdf(axis, wo)
+        previous = G.cdf[k]
+    return total / share if share > 0.0 else 0.0
+
+
+@stage_kernel
+def medium_glow_sample(G, C, p, share, x, u, v):
+    """A direction toward a lamp glowing in path p's medium: u picks the lamp (renormalised over
+    those) and, rescaled within its share, the angle from its direction; v the azimuth."""
+    target = u * share
+    previous = 0.0
+    seen = 0.0
+    chosen = -1
+    within = 0.0
+    for k in range(G.count):
+        if _glows_here(G, k, C, p):
+            width = G.cdf[k] - previous
+            chosen = k
+            if target < seen + width:
+                within = min(max((target - seen) / width, 0.0), 1.0 - 1e-16) if width > 0.0 else 0.0
+                break
+            seen += width
+        previous = G.cdf[k]
+    if chosen < 0:
+        return (0.0, 0.0, 1.0), False
+    lower = G.cdf[chosen - 1] if chosen > 0 else 0.0
+    return glow_sample(G, x, 0.5 * (lower + G.cdf[chosen]), within, v)

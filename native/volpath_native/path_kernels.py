@@ -35,7 +35,8 @@ from .film import filter_offset1
 from .grid_kernels import STREAM_DIMENSIONS
 from .grid_slots import (slot_attenuation, slot_cell_max_extinction, slot_free_flight, slot_g, slot_nee_distance_pdf,
                          slot_nee_distance_sample_pdf, slot_scattering, slot_transmittance)
-from .glow_guide import GLOW_SHARE, glow_pdf, glow_sample, guided_label, surface_has_delta
+from .glow_guide import (GLOW_SHARE, glow_pdf, glow_sample, guided_label, medium_glow_pdf, medium_glow_sample,
+                         medium_glow_share, surface_has_delta)
 from .jit import inline_stage_kernel, stage_kernel
 from .light_kernels import (TRIANGLE, equiangular_centre, lamp_crossing_unselected, light_has_position,
                             sample_light_selected, triangle_emission_unselected, triangle_sample_barycentrics)
@@ -579,6 +580,18 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
                 for c in range(3):
                     ok = ss[c] > 0.0 and pdf > 0.0
                     F[p, BETA + c] *= f[c] / (ss[c] * pdf) if ok else 0.0
+            elif S.glow.count > 0 and not in_grid and medium_glow_share(S.glow, C, p) > 0.0:
+                # partly toward lamps glowing in this medium (glow_guide)
+                share = medium_glow_share(S.glow, C, p)
+                if u1 < GLOW_SHARE:
+                    wo, ok = medium_glow_sample(S.glow, C, p, share, x, u1 / GLOW_SHARE, u2)
+                    phase = hg_eval1(g, _dot3(d, wo)) if ok else 0.0
+                else:
+                    wx, wy, wz, phase = hg_sample1(d[0], d[1], d[2], g,
+                                                   min((u1 - GLOW_SHARE) / (1.0 - GLOW_SHARE), 1.0 - 1e-16), u2)
+                    wo = (wx, wy, wz)
+                pdf = (1.0 - GLOW_SHARE) * phase + GLOW_SHARE * medium_glow_pdf(S.glow, C, p, share, x, wo)
+                _set3(F, p, BETA, _scale3(_get3(F, p, BETA), phase / pdf if pdf > 0.0 else 0.0))
             else:
                 wx, wy, wz, pdf = hg_sample1(d[0], d[1], d[2], g, u1, u2)  # phase / pdf == 1
                 wo = (wx, wy, wz)
@@ -728,6 +741,9 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
     else:
         phase = hg_eval1(g, cos_theta)  # the phase pdf (MIS) and sigma_s x phase per channel
         scattering = _scale3(ss, phase)
+        share = medium_glow_share(S.glow, C, p) if S.glow.count > 0 else 0.0
+        if share > 0.0:  # a scatter here would mix the glow guide into phase sampling
+            phase = (1.0 - GLOW_SHARE) * phase + GLOW_SHARE * medium_glow_pdf(S.glow, C, p, share, x, wi)
     w = power_heuristic(light_pdf, phase) if light_pdf > 0.0 else 1.0
     contrib = _scale3(_mul3(_mul3(_mul3(beta, tr), scattering), value), w / pdf_t)
     if _max3(contrib) > 0.0:

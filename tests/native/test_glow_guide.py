@@ -4,7 +4,8 @@ paths, and a planted pdf error it catches), and the glow's heavy tail is gone.""
 import numpy as np
 import pytest
 
-from volpath_native.glow_guide import GLOW_CONE, GlowTable, glow_pdf, glow_sample, glow_table
+from volpath_native.glow_guide import (GLOW_CONE, GlowTable, glow_pdf, glow_sample, glow_table, medium_glow_pdf,
+                                      medium_glow_sample, medium_glow_share, no_glow)
 from volpath_native.integrator import Integrator
 from volpath_native.media import MediaTable
 from volpath_native.accel import Accelerator
@@ -12,7 +13,7 @@ from volpath_native.scene import Camera, Film, Material, Medium, PointLight, Ren
 
 from native_helpers import box_mesh, camera_at
 
-LAMPS = GlowTable(2, np.array([[0.0, 0.0, 2.0], [1.5, 0.3, 0.4]]), np.array([0.7, 1.0]))
+LAMPS = GlowTable(2, np.array([[0.0, 0.0, 2.0], [1.5, 0.3, 0.4]]), np.array([0.7, 1.0]), np.zeros((2, 2), np.int8))
 ORIGIN = (0.1, -0.2, 0.0)
 
 
@@ -55,6 +56,23 @@ def test_the_pdf_is_the_density_of_the_samples(planted):
     assert abs(values.mean() - 1.0) < 4 * values.std() / np.sqrt(len(values)) + 1e-3
 
 
+def test_medium_vertices_aim_at_the_lamps_of_their_own_medium():
+    table = LAMPS._replace(stack=np.array([[1, 0], [1, 1]], np.int8))  # the second lamp inside volume 1 in 0
+    stack = np.array([[1, 0]], np.int8)  # the path is in volume 0 alone: only the first lamp glows there
+    share = medium_glow_share(table, stack, 0)
+    assert share == pytest.approx(0.7)
+    rng = np.random.default_rng(4)
+    inverse = []
+    for u, v in rng.random((20000, 2)):
+        wo, ok = medium_glow_sample(table, stack, 0, share, ORIGIN, u, v)
+        assert ok
+        inverse.append(1.0 / medium_glow_pdf(table, stack, 0, share, ORIGIN, wo))
+    inverse = np.array(inverse)
+    z = (inverse.mean() - 2 * np.pi * (1 - np.cos(GLOW_CONE))) / (inverse.std() / np.sqrt(len(inverse)))
+    assert abs(z) < 4  # one cone's solid angle: the samples and the pdf cover the first lamp only
+    assert medium_glow_share(table, np.array([[0, 0]], np.int8), 0) == 0.0  # in neither volume
+
+
 def _fog_lamps(lamp_radius=0.0, lamp_position=(0.3, 0.2, 0.6), others=True):
     """A floor and a block in a fog box lit by a delta point lamp in the fog (its glow) and, with
     `others`, a soft sphere lamp and the world (hittable emitters: both MIS techniques)."""
@@ -66,7 +84,8 @@ def _fog_lamps(lamp_radius=0.0, lamp_position=(0.3, 0.2, 0.6), others=True):
                  media=[Medium("fog", 0.25, 0.02, g=0.2)],
                  lights=[PointLight("glowing", list(lamp_position), power=200.0, radius=lamp_radius)]
                  + ([PointLight("soft", [-1.0, -0.5, 1.6], power=80.0, radius=0.2)] if others else []),
-                 world=World(background=0.3 if others else 0.0), settings=RenderSettings(samples=1, seed=11))
+                 world=World(background=0.3 if others else 0.0),
+                 settings=RenderSettings(samples=1, seed=11, volume_bounces=4))  # medium vertices guided too
 
 
 def test_only_delta_lamps_in_scattering_media_glow():
@@ -76,6 +95,7 @@ def test_only_delta_lamps_in_scattering_media_glow():
     accel = Accelerator(scene.meshes, scene.materials)
     table = glow_table(scene.lights, MediaTable(scene, accel))
     assert table.count == 1 and np.allclose(table.position[0], [0.3, 0.2, 0.6])  # not the soft lamp nor the one outside
+    assert table.stack.tolist() == [[1]]  # it glows in the fog box
 
 
 def _paired(integrator, spp, glow):
@@ -95,10 +115,10 @@ def test_guided_bounces_keep_the_image(planted):
     integrator = Integrator(_fog_lamps())
     assert integrator.tables.glow.count == 1
     guide = integrator.tables.glow
-    if planted:  # the pdf counts the lamp at half its probability: guided bounces weigh twice
-        guide = guide._replace(cdf=np.array([0.5]))
-    off = GlowTable(0, np.zeros((1, 3)), np.ones(1))
-    guided, plain = _paired(integrator, 600, guide), _paired(integrator, 600, off)
+    if planted:  # a cdf ending at 8: at surfaces the samples fill the cone's inner eighth, the pdf claims all
+        guide = guide._replace(cdf=np.array([8.0]))
+    off = no_glow()
+    guided, plain = _paired(integrator, 1500, guide), _paired(integrator, 1500, off)
     difference = guided - plain
     z = difference.mean() / (difference.std() / np.sqrt(len(difference)))
     assert (abs(z) < 4) != planted, z
@@ -113,7 +133,7 @@ def test_guided_bounces_tame_the_glow():
     scene.camera = Camera(camera_at([3.0, -2.0, 0.4], look_dir=tuple(look), up=(0, 0, 1)), fov=0.02)
     scene.film = Film(1, 1)
     integrator = Integrator(scene)
-    off = GlowTable(0, np.zeros((1, 3)), np.ones(1))
+    off = no_glow()
     guided, plain = _paired(integrator, 40000, None), _paired(integrator, 40000, off)
     assert guided.max() < 6 * guided.mean()
     assert plain.max() > 4 * guided.max()
