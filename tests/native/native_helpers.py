@@ -100,3 +100,15 @@ def rotated_transform(voxel_size=0.05, offset=(0.3, -0.2, 1.0)):
     m[:3, :3] = rot @ tilt @ np.diag([voxel_size, voxel_size * 1.5, voxel_size * 0.8])
     m[:3, 3] = offset
     return m
+
+
+def lit_box_in_fog(**settings):
+    """A lit box in fog inside a null boundary, the lamp inside the fog: shadow rays step through
+    the boundary and are seldom blocked."""
+    fog = box_mesh("fog", [-1.5, -1.5, -1.5], [1.5, 1.5, 1.5], material=1)
+    return Scene(camera=Camera(camera_at([0, 0, 4])), film=Film(12, 8),
+                 meshes=[box_mesh("box", [-0.5, -0.5, -0.5], [0.5, 0.5, 0.5]), fog],
+                 materials=[Material("d", base_color=[0.8, 0.4, 0.2]), Material("fog", surface="null", medium=0)],
+                 media=[Medium("m", [0.3, 0.4, 0.5], 0.05, g=0.3)],
+                 lights=[PointLight("p", [0.5, 1.2, 1.0], power=300.0, radius=0.1)],
+                 settings=RenderSettings(samples=1, seed=4, **settings))

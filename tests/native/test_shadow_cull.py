@@ -9,9 +9,9 @@ import pytest
 from volpath_native import integrator as integrator_module
 from volpath_native.accel import ALL_MASK, MASK_OPAQUE, MASK_SEE_THROUGH, Accelerator
 from volpath_native.integrator import Integrator
-from volpath_native.scene import Camera, Film, Material, Medium, PointLight, RenderSettings, Scene, SunLight
+from volpath_native.scene import Camera, Film, Material, Medium, RenderSettings, Scene, SunLight
 
-from native_helpers import box_mesh, camera_at
+from native_helpers import box_mesh, camera_at, lit_box_in_fog
 
 
 def _shaded_fog():
@@ -29,18 +29,7 @@ def _shaded_fog():
                  settings=RenderSettings(samples=1, seed=7))
 
 
-def _lamp_in_fog():
-    """A lamp inside the fog box: shadow rays are seldom blocked."""
-    fog = box_mesh("fog", [-1.5, -1.5, -1.5], [1.5, 1.5, 1.5], material=1)
-    return Scene(camera=Camera(camera_at([0, 0, 4])), film=Film(12, 8),
-                 meshes=[box_mesh("box", [-0.5, -0.5, -0.5], [0.5, 0.5, 0.5]), fog],
-                 materials=[Material("d", base_color=[0.8, 0.4, 0.2]), Material("fog", surface="null", medium=0)],
-                 media=[Medium("m", [0.3, 0.4, 0.5], 0.05, g=0.3)],
-                 lights=[PointLight("p", [0.5, 1.2, 1.0], power=300.0, radius=0.1)],
-                 settings=RenderSettings(samples=1, seed=4))
-
-
-SCENES = {"shaded fog": _shaded_fog, "lamp in fog": _lamp_in_fog}
+SCENES = {"shaded fog": _shaded_fog, "lamp in fog": lit_box_in_fog}
 
 
 def _batch(integrator, spp=8):

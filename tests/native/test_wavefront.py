@@ -13,18 +13,12 @@ from volpath_native.scene import (AreaLight, Camera, Film, Material, Medium, Mes
                                   SpotLight, SunLight, World)
 from volpath_native.bsdfs.nodes import SurfaceNode
 
-from native_helpers import box_mesh, camera_at
+from native_helpers import box_mesh, camera_at, lit_box_in_fog
 
 
 def _fog(**settings):
     """A lit box in fog inside a null boundary: shadow rays step through it."""
-    fog = box_mesh("fog", [-1.5, -1.5, -1.5], [1.5, 1.5, 1.5], material=1)
-    return Scene(camera=Camera(camera_at([0, 0, 4])), film=Film(12, 8),
-                 meshes=[box_mesh("box", [-0.5, -0.5, -0.5], [0.5, 0.5, 0.5]), fog],
-                 materials=[Material("d", base_color=[0.8, 0.4, 0.2]), Material("fog", surface="null", medium=0)],
-                 media=[Medium("m", [0.3, 0.4, 0.5], 0.05, g=0.3)],
-                 lights=[PointLight("p", [0.5, 1.2, 1.0], power=300.0, radius=0.1)],
-                 settings=RenderSettings(samples=1, seed=4, **settings))
+    return lit_box_in_fog(**settings)
 
 
 def _surfaces():
