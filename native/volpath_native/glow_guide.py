@@ -36,8 +36,11 @@ from .bsdfs.closures import _is_diffuse_kind
 from .bsdfs.microfacet import is_singular
 from .jit import inline_stage_kernel, stage_kernel
 
-#: the share of bounce directions drawn toward glowing lamps where any glow
-GLOW_SHARE = 0.1
+#: the share of bounce directions drawn toward glowing lamps where any glow. Error per sample (256
+#: spp x 4 seeds) at 0.1 / 0.05 / 0.025: Cornell point 0.721 / 0.690 / 0.720, spot 0.534 / 0.496 /
+#: 0.497, glass of liquid 0.639 / 0.600 / 0.592 (a smaller share wastes fewer directions where
+#: nothing glows; the tail stays bounded, at GLOW_CONE / GLOW_SHARE)
+GLOW_SHARE = 0.05
 #: half-angle (radians) of the cone around a lamp's direction those directions fill
 GLOW_CONE = 0.2
 
