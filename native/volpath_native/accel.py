@@ -164,8 +164,9 @@ class Accelerator:
                 self._embree.add_triangles(self.vertices, self.triangles[start:end], start, mask)
             for first, (mesh, keep) in deforming.items():
                 if first < self.world_triangle_count:
-                    self._embree.add_triangles(list(mesh.vertex_motion), _kept(mesh.triangles, keep), first,
-                                               self._class_mask(first, first + len(_kept(mesh.triangles, keep))))
+                    kept = _kept(mesh.triangles, keep)
+                    self._embree.add_triangles(list(mesh.vertex_motion), kept, first,
+                                               self._class_mask(first, first + len(kept)))
             for first, count, placements in self._prototype_ranges:
                 prototype = TriangleScene(self.build_quality)
                 if first in deforming:

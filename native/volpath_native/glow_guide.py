@@ -35,6 +35,7 @@ from .bsdfs.closures import CLOSURE_TRANSPARENT, LABEL_DIFFUSE, LABEL_GLOSSY, LA
 from .bsdfs.closures import _is_diffuse_kind
 from .bsdfs.microfacet import is_singular
 from .jit import inline_stage_kernel, stage_kernel
+from .sampling import local_to_world1
 
 #: the share of bounce directions drawn toward glowing lamps where any glow. Error per sample (256
 #: spp x 4 seeds) at 0.1 / 0.05 / 0.025: Cornell point 0.721 / 0.690 / 0.720, spot 0.534 / 0.496 /
@@ -78,6 +79,12 @@ def glow_table(lights, media) -> GlowTable:
     cdf[-1] = 1.0
     return GlowTable(len(positions), np.ascontiguousarray(positions, np.float64), np.ascontiguousarray(cdf),
                      np.ascontiguousarray(stacks_kept, np.int8))
+
+
+@inline_stage_kernel
+def mixture_pdf(technique_pdf, guide_pdf):
+    """The pdf of a direction drawn by the BSDF or phase function (1 - GLOW_SHARE) or the guide."""
+    return (1.0 - GLOW_SHARE) * technique_pdf + GLOW_SHARE * guide_pdf
 
 
 @inline_stage_kernel
@@ -128,17 +135,41 @@ def _axis_to(G, k, x):
     return (dx / r, dy / r, dz / r), True
 
 
+# every lamp counts (glow_pdf); a stand-in for the path stack the pdf then does not read
+_ANY_STACK = np.zeros((1, 1), np.int8)
+
+
 @inline_stage_kernel
-def glow_pdf(G, x, wo):
-    """The guide's solid-angle density of direction wo from x (the lamps' mixture)."""
+def _lamps_pdf(G, C, p, here_only, x, wo):
+    """Sum over the lamps (those glowing in path p's medium if here_only) of their pick
+    probability x the cone's density of wo from x."""
     total = 0.0
     previous = 0.0
     for k in range(G.count):
-        axis, ok = _axis_to(G, k, x)
-        if ok:
-            total += (G.cdf[k] - previous) * _cone_pdf(axis, wo)
+        if not here_only or _glows_here(G, k, C, p):
+            axis, ok = _axis_to(G, k, x)
+            if ok:
+                total += (G.cdf[k] - previous) * _cone_pdf(axis, wo)
         previous = G.cdf[k]
     return total
+
+
+@inline_stage_kernel
+def glow_pdf(G, x, wo):
+    """The guide's solid-angle density of direction wo from x (the lamps' mixture)."""
+    return _lamps_pdf(G, _ANY_STACK, 0, False, x, wo)
+
+
+@inline_stage_kernel
+def _toward(G, k, x, u1, u2):
+    """A direction from x in the cone around lamp k, theta = GLOW_CONE u1: ((x, y, z), ok)."""
+    axis, ok = _axis_to(G, k, x)
+    if not ok:
+        return axis, False
+    theta = GLOW_CONE * u1
+    phi = 2.0 * np.pi * u2
+    st = np.sin(theta)
+    return local_to_world1(axis[0], axis[1], axis[2], st * np.cos(phi), st * np.sin(phi), np.cos(theta)), True
 
 
 @inline_stage_kernel
@@ -149,23 +180,7 @@ def glow_sample(G, x, u_pick, u1, u2):
         if u_pick < G.cdf[j]:
             k = j
             break
-    axis, ok = _axis_to(G, k, x)
-    if not ok:
-        return axis, False
-    theta = GLOW_CONE * u1
-    phi = 2.0 * np.pi * u2
-    # an orthonormal frame around the axis (Duff et al. 2017)
-    sign = 1.0 if axis[2] >= 0.0 else -1.0
-    a = -1.0 / (sign + axis[2])
-    b = axis[0] * axis[1] * a
-    t = (1.0 + sign * axis[0] * axis[0] * a, sign * b, -sign * axis[0])
-    bt = (b, sign + axis[1] * axis[1] * a, -axis[1])
-    st, ct = np.sin(theta), np.cos(theta)
-    cp, sp = np.cos(phi), np.sin(phi)
-    wo = (ct * axis[0] + st * (cp * t[0] + sp * bt[0]),
-          ct * axis[1] + st * (cp * t[1] + sp * bt[1]),
-          ct * axis[2] + st * (cp * t[2] + sp * bt[2]))
-    return wo, True
+    return _toward(G, k, x, u1, u2)
 
 
 @inline_stage_kernel
@@ -193,15 +208,7 @@ def medium_glow_share(G, C, p):
 @stage_kernel
 def medium_glow_pdf(G, C, p, share, x, wo):
     """glow_pdf over the lamps glowing in path p's medium (renormalised by their share)."""
-    total = 0.0
-    previous = 0.0
-    for k in range(G.count):
-        if _glows_here(G, k, C, p):
-            axis, ok = _axis_to(G, k, x)
-            if ok:
-                total += (G.cdf[k] - previous) * _cone_pdf(axis, wo)
-        previous = G.cdf[k]
-    return total / share if share > 0.0 else 0.0
+    return _lamps_pdf(G, C, p, True, x, wo) / share if share > 0.0 else 0.0
 
 
 @stage_kernel
@@ -224,5 +231,4 @@ def medium_glow_sample(G, C, p, share, x, u, v):
         previous = G.cdf[k]
     if chosen < 0:
         return (0.0, 0.0, 1.0), False
-    lower = G.cdf[chosen - 1] if chosen > 0 else 0.0
-    return glow_sample(G, x, 0.5 * (lower + G.cdf[chosen]), within, v)
+    return _toward(G, chosen, x, within, v)

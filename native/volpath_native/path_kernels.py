@@ -36,7 +36,7 @@ from .grid_kernels import STREAM_DIMENSIONS
 from .grid_slots import (slot_attenuation, slot_cell_max_extinction, slot_free_flight, slot_g, slot_nee_distance_pdf,
                          slot_nee_distance_sample_pdf, slot_scattering, slot_transmittance)
 from .glow_guide import (GLOW_SHARE, glow_pdf, glow_sample, guided_label, medium_glow_pdf, medium_glow_sample,
-                         medium_glow_share, surface_has_delta)
+                         medium_glow_share, mixture_pdf, surface_has_delta)
 from .jit import inline_stage_kernel, stage_kernel
 from .light_kernels import (TRIANGLE, equiangular_centre, lamp_crossing_unselected, light_has_position,
                             sample_light_selected, triangle_emission_unselected, triangle_sample_barycentrics)
@@ -571,6 +571,8 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
             stats[0] += 1
             x = (o[0] + d[0] * t_scatter, o[1] + d[1] * t_scatter, o[2] + d[2] * t_scatter)
             u1, u2 = _u2(K, p, iteration, D_PHASE_U)
+            # the share of lamps glowing in this medium (glow_guide): homogeneous one-lobe vertices
+            share = medium_glow_share(S.glow, C, p) if S.glow.count > 0 and not in_grid else 0.0
             if grid_event:
                 wx, wy, wz, pdf = hg_sample1(d[0], d[1], d[2], event_g, u1, u2)
                 wo = (wx, wy, wz)
@@ -580,17 +582,14 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
                 for c in range(3):
                     ok = ss[c] > 0.0 and pdf > 0.0
                     F[p, BETA + c] *= f[c] / (ss[c] * pdf) if ok else 0.0
-            elif S.glow.count > 0 and not in_grid and medium_glow_share(S.glow, C, p) > 0.0:
-                # partly toward lamps glowing in this medium (glow_guide)
-                share = medium_glow_share(S.glow, C, p)
+            elif share > 0.0:  # partly toward lamps glowing in this medium
                 if u1 < GLOW_SHARE:
                     wo, ok = medium_glow_sample(S.glow, C, p, share, x, u1 / GLOW_SHARE, u2)
                     phase = hg_eval1(g, _dot3(d, wo)) if ok else 0.0
                 else:
-                    wx, wy, wz, phase = hg_sample1(d[0], d[1], d[2], g,
-                                                   min((u1 - GLOW_SHARE) / (1.0 - GLOW_SHARE), 1.0 - 1e-16), u2)
+                    wx, wy, wz, phase = hg_sample1(d[0], d[1], d[2], g, _rescaled_above(u1, GLOW_SHARE), u2)
                     wo = (wx, wy, wz)
-                pdf = (1.0 - GLOW_SHARE) * phase + GLOW_SHARE * medium_glow_pdf(S.glow, C, p, share, x, wo)
+                pdf = mixture_pdf(phase, medium_glow_pdf(S.glow, C, p, share, x, wo))
                 _set3(F, p, BETA, _scale3(_get3(F, p, BETA), phase / pdf if pdf > 0.0 else 0.0))
             else:
                 wx, wy, wz, pdf = hg_sample1(d[0], d[1], d[2], g, u1, u2)  # phase / pdf == 1
@@ -743,7 +742,7 @@ def _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, 
         scattering = _scale3(ss, phase)
         share = medium_glow_share(S.glow, C, p) if S.glow.count > 0 else 0.0
         if share > 0.0:  # a scatter here would mix the glow guide into phase sampling
-            phase = (1.0 - GLOW_SHARE) * phase + GLOW_SHARE * medium_glow_pdf(S.glow, C, p, share, x, wi)
+            phase = mixture_pdf(phase, medium_glow_pdf(S.glow, C, p, share, x, wi))
     w = power_heuristic(light_pdf, phase) if light_pdf > 0.0 else 1.0
     contrib = _scale3(_mul3(_mul3(_mul3(beta, tr), scattering), value), w / pdf_t)
     if _max3(contrib) > 0.0:
@@ -954,7 +953,7 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
         v0, v1, v2 = _textured_light_value(S, T, SP, SPS, row, u1, u2, wi, (v0, v1, v2), F[p, TIME])
         f, bsdf_pdf = surface_eval(CB, count, BT, wi_view, wi, ns, n_face)
         if guide:
-            bsdf_pdf = (1.0 - GLOW_SHARE) * bsdf_pdf + GLOW_SHARE * glow_pdf(S.glow, pb, wi)
+            bsdf_pdf = mixture_pdf(bsdf_pdf, glow_pdf(S.glow, pb, wi))
         if _max3(f) > 0.0:
             w = power_heuristic(light_pdf, bsdf_pdf) if light_pdf > 0.0 else 1.0
             contrib = _scale3(_mul3(_mul3(beta, f), (v0, v1, v2)), w)
@@ -971,15 +970,15 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
     if guide and u_pick < GLOW_SHARE:  # toward a glowing lamp (the pick number rescaled picks it)
         wo, ok = glow_sample(S.glow, pb, u_pick / GLOW_SHARE, u_bsdf, v_bsdf)
         f, bsdf_pdf = surface_eval(CB, count, BT, wi_view, wo, ns, n_face)
-        pdf = (1.0 - GLOW_SHARE) * bsdf_pdf + GLOW_SHARE * glow_pdf(S.glow, pb, wo)
+        pdf = mixture_pdf(bsdf_pdf, glow_pdf(S.glow, pb, wo))
         label = guided_label(CB, count, wo, n_face) if ok and pdf > 0.0 and _max3(f) > 0.0 else 0
         weight = _scale3(f, 1.0 / pdf) if label != 0 else (0.0, 0.0, 0.0)
     else:
         if guide:
-            u_pick = min((u_pick - GLOW_SHARE) / (1.0 - GLOW_SHARE), 1.0 - 1e-16)
+            u_pick = _rescaled_above(u_pick, GLOW_SHARE)
         wo, weight, pdf, label = surface_sample(CB, count, BT, wi_view, ns, n_face, u_pick, u_bsdf, v_bsdf)
         if guide and pdf > 0.0:  # a rough direction: weighed against the mixture
-            mixture = (1.0 - GLOW_SHARE) * pdf + GLOW_SHARE * glow_pdf(S.glow, pb, wo)
+            mixture = mixture_pdf(pdf, glow_pdf(S.glow, pb, wo))
             weight = _scale3(weight, pdf / mixture)
             pdf = mixture
     if label == 0:
