@@ -344,7 +344,9 @@ def grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, target, t_q
     + sigma_extra (a homogeneous medium around) over [0, t_end] of a unit ray, without lookups.
     Returns (depth of [0, t_end], found, t where the depth reaches `target`, sigma_c there,
     depth of [0, t_query], sigma_c at t_query). sigma_c x exp(-depth) is a distance distribution
-    that follows the medium cell by cell (path_kernels._grid_nee samples and evaluates it)."""
+    that follows the medium cell by cell (path_kernels._grid_nee samples and evaluates it). Once
+    the target is found and t_query passed the walk stops: the first value is then the depth up to
+    there (the sampler's walk needs only where the target falls)."""
     depth = 0.0
     found = False
     t_found = t_end
@@ -360,6 +362,8 @@ def grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, target, t_q
     rx, ry, rz = G.cell_shape[0], G.cell_shape[1], G.cell_shape[2]
     c = G.control
     while active:
+        if found and t_query < t:
+            return depth, found, t_found, sigma_found, depth_q, sigma_q
         axis, crossing = _next_crossing(nx, ny, nz)
         cell_end = min(crossing, t_exit)
         sigma = sigma_extra + (c[cx, cy, cz, 0] + c[cx, cy, cz, 1] + c[cx, cy, cz, 2]) * (1.0 / 3.0)

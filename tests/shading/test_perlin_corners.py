@@ -97,3 +97,30 @@ def test_planted_corner_order_error_in_the_cell_is_caught():
     args = (7, 8, 11, 12, 13, 14, 0.3, 0.6, 0.2)
     real = perlin_cell_3d(*args)
     assert perlin_cell_3d(7, 8, 13, 14, 11, 12, 0.3, 0.2, 0.6) != real
+
+
+def test_fbm_octave_groups_sum_as_the_loop():
+    # noise.fbm runs 3D octaves four at a time as straight-line code; its value must be the loop's
+    # (fractal_noise.h noise_fbm: octave by octave, fscale *= lacunarity in float32) bit for bit
+    from volpath_native.shading.textures.noise import fbm
+
+    def loop_fbm(x, y, z, detail, roughness, lacunarity):
+        fscale, amp, maxamp, total = np.float32(1.0), 1.0, 0.0, 0.0
+        for _ in range(int(detail) + 1):
+            total += perlin.snoise_3d(fscale * x, fscale * y, fscale * z) * amp
+            maxamp += amp
+            amp *= roughness
+            fscale = np.float32(fscale * lacunarity)
+        rmd = detail - np.floor(detail)
+        if rmd != 0.0:
+            t = perlin.snoise_3d(fscale * x, fscale * y, fscale * z)
+            a = 0.5 * total / maxamp + 0.5
+            return a + rmd * ((0.5 * (total + t * amp) / (maxamp + amp) + 0.5) - a)
+        return 0.5 * total / maxamp + 0.5
+
+    points = RNG.uniform(-40, 40, (40, 3)).astype(np.float32)
+    for detail in (0.0, 2.5, 3.0, 3.7, 7.0, 8.25, 15.0):
+        for roughness, lacunarity in ((0.5, np.float32(2.0)), (0.8, np.float32(1.7))):
+            for x, y, z in points:
+                got = fbm(3, x, y, z, np.float32(0.0), detail, roughness, lacunarity, True)
+                assert got == loop_fbm(x, y, z, detail, roughness, lacunarity), (detail, roughness, x, y, z)

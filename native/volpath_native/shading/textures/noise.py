@@ -14,7 +14,7 @@ import numpy as np
 
 from ...jit import stage_kernel
 from .hash import hash_float_to_float, hash_float2_to_float
-from .perlin import snoise
+from .perlin import snoise, snoise_3d_inline
 
 #: Blender's node enum order (DNA NodeNoiseType, Cycles svm/types.h NODE_NOISE_*)
 NOISE_MULTIFRACTAL, NOISE_FBM, NOISE_HYBRID_MULTIFRACTAL, NOISE_RIDGED_MULTIFRACTAL, NOISE_HETERO_TERRAIN = range(5)
@@ -48,12 +48,31 @@ def random_offset(dimensions, seed, component):
 
 @stage_kernel
 def fbm(dimensions, x, y, z, w, detail, roughness, lacunarity, normalize):
-    """fractal_noise.h `noise_fbm`: octave i at fscale * p, fscale = lacunarity^i (float32)."""
+    """fractal_noise.h `noise_fbm`: octave i at fscale * p, fscale = lacunarity^i (float32). 3D
+    octaves go four at a time as straight-line code: their Perlin cells are independent and the
+    compiler interleaves them (a loop of calls runs them one after the other; measured: 4 octaves
+    110 -> 97 ns), summed in the loop's order -- the same value bit for bit."""
     fscale = np.float32(1.0)
     amp = 1.0
     maxamp = 0.0
     total = 0.0
-    for _ in range(int(detail) + 1):
+    octaves = int(detail) + 1
+    done = 0
+    while dimensions == 3 and done + 4 <= octaves:
+        f1 = fscale * lacunarity
+        f2 = f1 * lacunarity
+        f3 = f2 * lacunarity
+        t0 = snoise_3d_inline(fscale * x, fscale * y, fscale * z)
+        t1 = snoise_3d_inline(f1 * x, f1 * y, f1 * z)
+        t2 = snoise_3d_inline(f2 * x, f2 * y, f2 * z)
+        t3 = snoise_3d_inline(f3 * x, f3 * y, f3 * z)
+        for t in (t0, t1, t2, t3):
+            total += t * amp
+            maxamp += amp
+            amp *= roughness
+        fscale = f3 * lacunarity
+        done += 4
+    for _ in range(done, octaves):
         t = snoise(dimensions, fscale * x, fscale * y, fscale * z, fscale * w)
         total += t * amp
         maxamp += amp

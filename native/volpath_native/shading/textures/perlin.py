@@ -115,8 +115,8 @@ def perlin_2d(x, y):
     return (1.0 - v) * (v0 * (1.0 - u) + v1 * u) + v * (v2 * (1.0 - u) + v3 * u)
 
 
-@stage_kernel
-def perlin_3d(x, y, z):
+@inline_stage_kernel
+def _perlin_3d(x, y, z):
     """noise.h `perlin_3d` in float32, as Cycles' SSE/AVX paths compute it (the corners' hashes,
     gradients and the three mixes as vector code: perlin_corners.perlin_cell_3d)."""
     X, fx = floorfrac(x)
@@ -124,6 +124,12 @@ def perlin_3d(x, y, z):
     Z, fz = floorfrac(z)
     return float(perlin_cell_3d(X & MASK32, (X + 1) & MASK32, Y & MASK32, (Y + 1) & MASK32, Z & MASK32,
                                 (Z + 1) & MASK32, fx, fy, fz))
+
+
+@stage_kernel
+def perlin_3d(x, y, z):
+    """_perlin_3d as a function of its own."""
+    return _perlin_3d(x, y, z)
 
 
 @stage_kernel
@@ -169,6 +175,12 @@ def snoise_1d(x):
 def snoise_2d(x, y):
     """noise.h `snoise_2d`."""
     return NOISE_SCALE_2D * perlin_2d(wrap_coordinate(x), wrap_coordinate(y))
+
+
+@inline_stage_kernel
+def snoise_3d_inline(x, y, z):
+    """noise.h `snoise_3d`, inlined into its caller (noise.fbm's groups of octaves)."""
+    return NOISE_SCALE_3D * _perlin_3d(wrap_coordinate(x), wrap_coordinate(y), wrap_coordinate(z))
 
 
 @stage_kernel
