@@ -80,6 +80,11 @@ GridTables = namedtuple("GridTables", [
     "frame",              # (2,3,4) float64 world -> object, object -> generated texture space
     "attributes",         # (nx,ny,nz,c) float32 grid attributes in the padded index space
     "images",             # shading.images.ImageTable read by image-texture opcodes (empty: none)
+    # ... and its reduced copy for lookups that need sigma_t and emission only (extinction_slice):
+    "has_extinction_program",  # bool
+    "extinction_code",    # (n,) int32
+    "extinction_init",    # (r + 3,) float64
+    "correction_probability",  # float: how often a lookup also runs the full program (program_extinction)
     # A moving medium (medium_motion.py): world_to_index and frame[0] are rewritten per path time.
     "motion_steps",       # int, the object's motion steps (1: static)
     "motion",             # (1,S,16) float64 decomposed steps (instance_motion.motion_table)
@@ -213,6 +218,32 @@ def program_coefficients(G, x, y, z):
     run_program(G.program_code, G.program_init, G.program_tables, G.registers, G.frame, G.attributes,
                 G.world_to_index, x, y, z, G.images)
     return closure_coefficients(G.registers)
+
+
+#: first dimension of a tracking stream for the correction draws of program_extinction (the
+#: tracker's own draws stay below 2 x TRACKING_BUDGET)
+CORRECTION_DIMENSION = 1 << 19
+
+
+@stage_kernel
+def program_extinction(G, x, y, z, key, stream, step):
+    """(sigma_t rgb, emission rgb) at a world point from the reduced program (shading/
+    extinction_slice.py: a Principled Volume's Color read as 0, its colour nodes skipped), plus --
+    with probability G.correction_probability, by Russian roulette -- the full program's sigma_t
+    minus it over that probability: an unbiased sigma_t (exact where the Color is <= 1, where the
+    correction is 0) whose colour work runs at those lookups only. step: the lookup's index in its
+    tracking call (its roulette number)."""
+    px, py, pz = _to_index(G, x, y, z)
+    if not (0.0 <= px <= G.shape[0] - 1 and 0.0 <= py <= G.shape[1] - 1 and 0.0 <= pz <= G.shape[2] - 1):
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    run_program(G.extinction_code, G.extinction_init, G.program_tables, G.registers, G.frame, G.attributes,
+                G.world_to_index, x, y, z, G.images)
+    _, _, _, tr, tg, tb, er, eg, eb = closure_coefficients(G.registers)
+    q = G.correction_probability
+    if uniform1(key, np.uint64(stream) + np.uint64(CORRECTION_DIMENSION) + np.uint64(step)) < q:
+        full = program_coefficients(G, x, y, z)
+        tr, tg, tb = tr + (full[3] - tr) / q, tg + (full[4] - tg) / q, tb + (full[5] - tb) / q
+    return tr, tg, tb, er, eg, eb
 
 
 @stage_kernel
@@ -504,9 +535,12 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
             G.flags[FLAG_LOOKUPS + mode] += 1
             t = t_candidate
             x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
-            ssr, ssg, ssb, str_, stg, stb, emr, emg, emb = grid_coefficients(G, x, y, z)
-            if mode == 0:
-                stop = False
+            if G.has_extinction_program:  # sigma_s, where needed, from the full program below
+                ssr = ssg = ssb = 0.0
+                str_, stg, stb, emr, emg, emb = program_extinction(G, x, y, z, key, stream, steps)
+            else:
+                ssr, ssg, ssb, str_, stg, stb, emr, emg, emb = grid_coefficients(G, x, y, z)
+            if mode == 0 and G.has_program:
                 peak = max(str_, max(stg, stb))
                 if peak > rate * (1.0 + _REL_TOL) + _ABS_TOL:
                     _record(G, FLAG_MAJORANT, peak, rate, x, y, z)
@@ -515,11 +549,47 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                 eg += wg * emg * inv
                 eb += wb * emb * inv
                 nr, ng, nb = rate - str_, rate - stg, rate - stb
-                if not G.has_program:  # conservative bounds: only rounding makes these negative
-                    nr, ng, nb = max(nr, 0.0), max(ng, 0.0), max(nb, 0.0)
-                # A program medium's majorant is sampled, so sigma_t may exceed it: the null
-                # coefficient is then negative and weighted delta tracking stays unbiased (Kutz et
-                # al. 2017, sect. 4: any P(scatter) in (0, 1) with weights sigma / (rate P)).
+                # Program media: real vs null from sigma_t alone, channels by throughput (Kutz et al.
+                # 2017: any P in (0, 1), real weight sigma_s / (rate P), null sigma_n / (rate (1 - P));
+                # unbiased with sigma_t estimated too, the choice made after it). A grey medium's
+                # null collisions then keep the throughput and a real one weighs it by the albedo,
+                # where the voxel grids' choice below (by sigma_s, absorption as a weight at every
+                # collision) multiplies it at each: measured, error per sample 128 spp x 8 seeds
+                # noise cloud 0.0442 -> 0.0383, height fog 0.158 -> 0.153, fire 0.157 -> 0.156. A
+                # reduced program's sigma_s comes from the full one, at real collisions only.
+                ar_, ag_, ab_ = abs(str_), abs(stg), abs(stb)
+                pr, pg, pb = abs(br), abs(bg), abs(bb)
+                total = pr + pg + pb
+                if total > 0.0:
+                    pr, pg, pb = pr / total, pg / total, pb / total
+                else:
+                    pr = pg = pb = 1.0 / 3.0
+                prob = (pr * (ar_ / (ar_ + abs(nr)) if ar_ + abs(nr) > 0.0 else 0.0)
+                        + pg * (ag_ / (ag_ + abs(ng)) if ag_ + abs(ng) > 0.0 else 0.0)
+                        + pb * (ab_ / (ab_ + abs(nb)) if ab_ + abs(nb) > 0.0 else 0.0))
+                u, partner = _draw(key, stream, draws, partner, qmc)
+                draws += 1
+                if u < prob:
+                    if G.has_extinction_program:
+                        ssr, ssg, ssb = grid_scattering(G, x, y, z)
+                    f = inv / prob
+                    return t, True, wr * ssr * f, wg * ssg * f, wb * ssb * f, er, eg, eb
+                f = inv / (1.0 - prob)
+                wr, wg, wb = wr * nr * f, wg * ng * f, wb * nb * f
+                if _ended(G, wr, wg, wb):
+                    return t_event, scattered, wr, wg, wb, er, eg, eb
+            elif mode == 0:  # voxel grids
+                stop = False
+                peak = max(str_, max(stg, stb))
+                if peak > rate * (1.0 + _REL_TOL) + _ABS_TOL:
+                    _record(G, FLAG_MAJORANT, peak, rate, x, y, z)
+                inv = 1.0 / rate
+                er += wr * emr * inv
+                eg += wg * emg * inv
+                eb += wb * emb * inv
+                # conservative bounds: only rounding makes these negative (a program medium's
+                # sampled majorant may be exceeded: the signed weights above keep it unbiased)
+                nr, ng, nb = max(rate - str_, 0.0), max(rate - stg, 0.0), max(rate - stb, 0.0)
                 pr = abs(br) * (ssr / str_ if str_ > 0.0 else 1.0)
                 pg = abs(bg) * (ssg / stg if stg > 0.0 else 1.0)
                 pb = abs(bb) * (ssb / stb if stb > 0.0 else 1.0)

@@ -440,7 +440,9 @@ class GridMedium:
     _NO_GRID = np.zeros((1, 1, 1, 3), dtype=np.float32)
     _NO_PROGRAM = dict(has_program=False, program_code=np.zeros(1, np.int32), program_init=np.zeros(1),
                        program_tables=np.zeros(1), registers=np.zeros(1), frame=np.zeros((2, 3, 4)),
-                       attributes=np.zeros((1, 1, 1, 1), np.float32), images=empty_image_table())
+                       attributes=np.zeros((1, 1, 1, 1), np.float32), images=empty_image_table(),
+                       has_extinction_program=False, extinction_code=np.zeros(1, np.int32),
+                       extinction_init=np.zeros(1), correction_probability=1.0)
 
     def _program_tables(self) -> dict:
         """The GridTables fields of a shader-program medium (none here: program_medium.py)."""
@@ -451,7 +453,8 @@ class GridMedium:
         them per path: medium_motion.py), private to one call or batch."""
         tables = self.tables
         return tables._replace(flags=np.zeros(N_FLAGS, dtype=np.int64), violation=np.zeros((2, 5)),
-                               registers=np.zeros(tables.program_init.shape[0]),
+                               registers=np.zeros(max(tables.program_init.shape[0],
+                                                      tables.extinction_init.shape[0])),
                                world_to_index=tables.world_to_index.copy(), frame=tables.frame.copy())
 
     def check_flags(self, tables: GridTables) -> int:

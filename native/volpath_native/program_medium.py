@@ -29,8 +29,9 @@ from .jit import stage_kernel
 from .sampling import seed_key, uniform1
 from .scene import SceneError
 from .shading.images import empty_image_table
-from .shading.interpreter import closure_coefficients, run_program
-from .shading.program import LOBE_STRIDE, MAX_LOBES, R_LOBES, ShaderProgram
+from .shading.extinction_slice import extinction_program
+from .shading.interpreter import closure_coefficients, run_program, run_program_many
+from .shading.program import LOBE_STRIDE, MAX_LOBES, R_LOBES, R_SIGMA_A, ShaderProgram
 
 #: majorant cells along each axis of the box
 DEFAULT_MAJORANT_RESOLUTION = 24
@@ -58,6 +59,11 @@ FLAT_AXIS_TOLERANCE = 0.1
 #: ... ranges taken over the cell and its neighbours (True) or the cell alone: measured, the
 #: neighbourhood's middle is a worse control (5-20x the variance on the noise cloud)
 RESIDUAL_DILATION = False
+#: how often a lookup through the reduced program (extinction_slice) also runs the full one, whose
+#: extinction it then adds as a roulette correction (grid_kernels.program_extinction)
+CORRECTION_PROBABILITY = 0.125
+#: random points where the two programs' extinction must agree for the reduced one to be used
+EXTINCTION_CHECK_POINTS = 4096
 
 
 @stage_kernel
@@ -204,7 +210,11 @@ class ProgramMedium(GridMedium):
         if self.attributes.ndim != 4 or self.attributes.shape[3] < n_channels:
             raise SceneError(f"program medium '{name}': attributes must be (nx, ny, nz, {n_channels}), "
                              f"got {self.attributes.shape}")
-        self._registers = np.zeros(program.n_registers)
+        # lookups that need sigma_t and emission only run a copy without the Principled Volume's
+        # colour nodes (extinction_slice), where the sampled points find both programs' extinction equal
+        self.extinction = extinction_program(program)
+        self.correction_probability = CORRECTION_PROBABILITY
+        self._registers = np.zeros(program.n_registers + 3)
         self.images = empty_image_table()  # image textures inside volumes: not yet bound
         self._flags = np.zeros(N_FLAGS, dtype=np.int64)
         self.lookups = np.zeros(3, dtype=np.int64)
@@ -214,13 +224,19 @@ class ProgramMedium(GridMedium):
         self.violation_count = 0  # tentative collisions above the sampled majorant (check_flags)
         self.residual_violation_count = 0  # shadow-ray lookups with |sigma_t - control| above the rate
         self._build_majorant_grid(resolution)
+        if self.extinction is not None and not self._extinction_agrees():
+            self.extinction = None
 
     # ------------------------------------------------------------------------------------------
     def _program_tables(self) -> dict:
         p = self.program
+        reduced = self.extinction
         return dict(has_program=True, program_code=p.code, program_init=p.init, program_tables=p.tables,
                     registers=self._registers, frame=self.frame, attributes=self.attributes,
-                    images=self.images)
+                    images=self.images, has_extinction_program=reduced is not None,
+                    extinction_code=reduced.code if reduced is not None else np.zeros(1, np.int32),
+                    extinction_init=reduced.init if reduced is not None else np.zeros(1),
+                    correction_probability=self.correction_probability)
 
     def _build_majorant_grid(self, resolution: int):
         """Sampled per-cell maxima, dilated by one cell, with a margin and a floor (module docstring);
@@ -264,6 +280,27 @@ class ProgramMedium(GridMedium):
         self.control_rgb = 0.5 * (low_rgb + high_rgb)
         half_width = 0.5 * (high_rgb - low_rgb).max(axis=-1)
         self.residual_rate = np.maximum(half_width * RESIDUAL_MARGIN, MAJORANT_FLOOR * peak)
+
+    def _extinction_agrees(self) -> bool:
+        """Whether the reduced program's extinction equals the full one's at EXTINCTION_CHECK_POINTS
+        random points of the box (it differs where a Color exceeds 1: the roulette's correction
+        would then add variance at every lookup, so the medium keeps the full program). Either
+        way the estimate is unbiased: this only chooses the cheaper one."""
+        rng = np.random.default_rng(0x5EED)
+        lo, hi = self.object_bounds
+        local = lo + (hi - lo) * rng.random((EXTINCTION_CHECK_POINTS, 3))
+        points = np.ascontiguousarray(local @ self.object_to_world[:3, :3].T + self.object_to_world[:3, 3])
+        extinction = []
+        for program in (self.program, self.extinction):
+            first, count = R_SIGMA_A, R_LOBES + MAX_LOBES * LOBE_STRIDE - R_SIGMA_A
+            out = np.zeros((len(points), count))
+            run_program_many(program.code, program.init, program.tables, np.zeros(program.n_registers), self.frame,
+                             self.attributes, np.ascontiguousarray(self.world_to_index[:3]), points, out, first, count,
+                             self.images)
+            lobes = out[:, R_LOBES - first:].reshape(len(points), MAX_LOBES, LOBE_STRIDE)[:, :, :3].sum(axis=1)
+            extinction.append(np.maximum(out[:, :3], 0.0) + np.maximum(lobes, 0.0))
+        scale = max(float(np.abs(extinction[0]).max()), 1e-300)
+        return bool(np.all(np.abs(extinction[0] - extinction[1]) <= 1e-9 * scale))
 
     def check_flags(self, tables) -> int:
         """As GridMedium.check_flags, but majorant and residual-rate violations are expected (the

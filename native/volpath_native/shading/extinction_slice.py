@@ -64,24 +64,19 @@ def _colour_free(values: dict, program: ShaderProgram, written: set) -> bool:
     return not any(r in written for r in absorption) and all(program.init[r] == 0.0 for r in absorption)
 
 
-def extinction_program(program: ShaderProgram):
-    """The reduced program (module docstring), or None when it would drop nothing."""
-    decoded = _decode(program)
-    if any(name in _UNSLICEABLE for _, name, _ in decoded):
-        return None
-    written = set()
-    for _, name, values in decoded:
-        written |= _reads_writes(name, values)[1]
+def _slice(decoded, program: ShaderProgram, written: set, redirect: bool):
+    """(kept instructions as (name, operands), colour flags cleared, Colors redirected) of a backward
+    liveness pass, with or without the Principled Volumes' Colors read as 0."""
     zero = program.n_registers  # three registers appended, holding 0: the redirected Color
-    live, kept, redirected, saved = set(), [], False, False
+    live, kept, cleared, redirected = set(), [], 0, 0
     for pc, name, values in reversed(decoded):
         reads, writes = _reads_writes(name, values)
         if name in _CLOSURES:
             values = dict(values)
-            if name == "PRINCIPLED_VOLUME" and _colour_free(values, program, written):
+            if redirect and name == "PRINCIPLED_VOLUME" and _colour_free(values, program, written):
                 reads -= set(range(values["color3"], values["color3"] + 3))
                 values["color3"] = zero
-                redirected = True
+                redirected += 1
             kept.append((name, values))
             live |= reads
             continue
@@ -91,13 +86,27 @@ def extinction_program(program: ShaderProgram):
         flag = _COLOUR_FLAGS.get(name)
         if flag and values[flag] and not set(range(values["out_color3"], values["out_color3"] + 3)) & live:
             values[flag] = 0
-            saved = True
+            cleared += 1
         kept.append((name, values))
         live = (live - writes) | reads
-    if not redirected or not (saved or len(kept) < len(decoded)):
+    return kept[::-1], cleared, redirected
+
+
+def extinction_program(program: ShaderProgram):
+    """The reduced program (module docstring), or None when reading the Colors as 0 would save
+    nothing (no Principled Volume with a black Absorption Color, or a constant Color)."""
+    decoded = _decode(program)
+    if any(name in _UNSLICEABLE for _, name, _ in decoded):
+        return None
+    written = set()
+    for _, name, values in decoded:
+        written |= _reads_writes(name, values)[1]
+    kept, cleared, redirected = _slice(decoded, program, written, True)
+    baseline, baseline_cleared, _ = _slice(decoded, program, written, False)
+    if not redirected or (len(kept) == len(baseline) and cleared == baseline_cleared):
         return None
     code = []
-    for name, values in reversed(kept):
+    for name, values in kept:
         code.append(OPS[name].code)
         code.extend(values[operand] for operand in OPS[name].operands)
     reduced = ShaderProgram(program.name + " (extinction)", np.array(code, np.int32),
