@@ -540,7 +540,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                 str_, stg, stb, emr, emg, emb = program_extinction(G, x, y, z, key, stream, steps)
             else:
                 ssr, ssg, ssb, str_, stg, stb, emr, emg, emb = grid_coefficients(G, x, y, z)
-            if mode == 0 and G.has_program:
+            if mode == 0:
                 peak = max(str_, max(stg, stb))
                 if peak > rate * (1.0 + _REL_TOL) + _ABS_TOL:
                     _record(G, FLAG_MAJORANT, peak, rate, x, y, z)
@@ -548,6 +548,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                 er += wr * emr * inv
                 eg += wg * emg * inv
                 eb += wb * emb * inv
+            if mode == 0 and G.has_program:
                 nr, ng, nb = rate - str_, rate - stg, rate - stb
                 # Program media: real vs null from sigma_t alone, channels by throughput (Kutz et al.
                 # 2017: any P in (0, 1), real weight sigma_s / (rate P), null sigma_n / (rate (1 - P));
@@ -580,13 +581,6 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                     return t_event, scattered, wr, wg, wb, er, eg, eb
             elif mode == 0:  # voxel grids
                 stop = False
-                peak = max(str_, max(stg, stb))
-                if peak > rate * (1.0 + _REL_TOL) + _ABS_TOL:
-                    _record(G, FLAG_MAJORANT, peak, rate, x, y, z)
-                inv = 1.0 / rate
-                er += wr * emr * inv
-                eg += wg * emg * inv
-                eb += wb * emb * inv
                 # conservative bounds: only rounding makes these negative (a program medium's
                 # sampled majorant may be exceeded: the signed weights above keep it unbiased)
                 nr, ng, nb = max(rate - str_, 0.0), max(rate - stg, 0.0), max(rate - stb, 0.0)
