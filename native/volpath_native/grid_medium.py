@@ -493,11 +493,12 @@ class GridMedium:
         density_many(self.tables, points, out)
         return out
 
-    def coefficients(self, points_world):
-        """(sigma_s, sigma_t, emission), each (M,3) float64, at world points (M,3)."""
+    def coefficients(self, points_world, tables=None):
+        """(sigma_s, sigma_t, emission), each (M,3) float64, at world points (M,3) (of `tables`
+        when given: the medium's with another program, ProgramMedium._extinction_agrees)."""
         points = _points(points_world)
         sigma_s, sigma_t, emission = (np.empty((len(points), 3)) for _ in range(3))
-        coefficients_many(self.tables, points, sigma_s, sigma_t, emission)
+        coefficients_many(self.tables if tables is None else tables, points, sigma_s, sigma_t, emission)
         return sigma_s, sigma_t, emission
 
     # ------------------------------------------------------------------------------------------

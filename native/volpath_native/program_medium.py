@@ -30,8 +30,8 @@ from .sampling import seed_key, uniform1
 from .scene import SceneError
 from .shading.images import empty_image_table
 from .shading.extinction_slice import extinction_program
-from .shading.interpreter import closure_coefficients, run_program, run_program_many
-from .shading.program import LOBE_STRIDE, MAX_LOBES, R_LOBES, R_SIGMA_A, ShaderProgram
+from .shading.interpreter import closure_coefficients, run_program
+from .shading.program import LOBE_STRIDE, MAX_LOBES, R_LOBES, ShaderProgram
 
 #: majorant cells along each axis of the box
 DEFAULT_MAJORANT_RESOLUTION = 24
@@ -290,17 +290,11 @@ class ProgramMedium(GridMedium):
         lo, hi = self.object_bounds
         local = lo + (hi - lo) * rng.random((EXTINCTION_CHECK_POINTS, 3))
         points = np.ascontiguousarray(local @ self.object_to_world[:3, :3].T + self.object_to_world[:3, 3])
-        extinction = []
-        for program in (self.program, self.extinction):
-            first, count = R_SIGMA_A, R_LOBES + MAX_LOBES * LOBE_STRIDE - R_SIGMA_A
-            out = np.zeros((len(points), count))
-            run_program_many(program.code, program.init, program.tables, np.zeros(program.n_registers), self.frame,
-                             self.attributes, np.ascontiguousarray(self.world_to_index[:3]), points, out, first, count,
-                             self.images)
-            lobes = out[:, R_LOBES - first:].reshape(len(points), MAX_LOBES, LOBE_STRIDE)[:, :, :3].sum(axis=1)
-            extinction.append(np.maximum(out[:, :3], 0.0) + np.maximum(lobes, 0.0))
-        scale = max(float(np.abs(extinction[0]).max()), 1e-300)
-        return bool(np.all(np.abs(extinction[0] - extinction[1]) <= 1e-9 * scale))
+        full = self.coefficients(points)[1]
+        reduced = self.coefficients(points, self.tables._replace(program_code=self.extinction.code,
+                                                                 program_init=self.extinction.init))[1]
+        scale = max(float(np.abs(full).max()), 1e-300)
+        return bool(np.all(np.abs(full - reduced) <= 1e-9 * scale))
 
     def check_flags(self, tables) -> int:
         """As GridMedium.check_flags, but majorant and residual-rate violations are expected (the
