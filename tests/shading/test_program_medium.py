@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from volpath_native import Camera, Film, Material, Medium, PointLight, RenderSettings, Scene, render
-from volpath_native.program_medium import ProgramMedium
+from volpath_native import program_medium
+from volpath_native.program_medium import DEFAULT_MAJORANT_RESOLUTION, EMISSIVE_MAJORANT_RESOLUTION, ProgramMedium
 from volpath_native.shading import program as P
 from volpath_native.shading.builder import ProgramBuilder
 from volpath_native.shading.interpreter import closure_coefficients, run_program_many
@@ -21,9 +22,9 @@ from native_helpers import Z_LIMIT, box_mesh  # noqa: E402
 ALBEDO = 0.7
 
 
-def wavy_program(scale: float = 1.0, constant: bool = False, second_axis: str = "z"):
+def wavy_program(scale: float = 1.0, constant: bool = False, second_axis: str = "z", emission: float = 0.0):
     """sigma_t(P) = scale (2 + 1.5 sin(3 x) cos(2 z)) in object space (0.5 if constant), albedo 0.7
-    (second_axis "y": cos(2 y) instead)."""
+    (second_axis "y": cos(2 y) instead), Emission Strength `emission`."""
     b = ProgramBuilder("wavy")
     pos = b.alloc(3)
     b.emit("TEXCO", P.TEXCO_OBJECT, pos)
@@ -40,7 +41,7 @@ def wavy_program(scale: float = 1.0, constant: bool = False, second_axis: str = 
     else:
         b.emit("MATH", P.MATH["MULTIPLY_ADD"], prod, b.const(1.5 * scale), b.const(2.0 * scale), dens)
     b.emit("PRINCIPLED_VOLUME", 0, b.const(1.0), b.const([ALBEDO] * 3), dens, b.const(0.0), b.const([0.0] * 3),
-           b.const(0.0), b.const([1.0] * 3), b.const(0.0), b.const([1.0] * 3), b.const(1000.0))
+           b.const(emission), b.const([1.0] * 3), b.const(0.0), b.const([1.0] * 3), b.const(1000.0))
     return b.build()
 
 
@@ -129,9 +130,43 @@ def test_majorant_bounds_the_program(medium):
 def test_majorant_cells_merge_along_an_axis_the_density_does_not_vary_on(medium):
     """The wavy density is constant along y: one majorant cell spans y (the tests above and below
     run on that merged grid); a density varying along y keeps its cells."""
-    assert tuple(medium.majorant_shape) == (24, 1, 24)
+    n = DEFAULT_MAJORANT_RESOLUTION
+    assert tuple(medium.majorant_shape) == (n, 1, n)
     varying = ProgramMedium("wavy y", wavy_program(second_axis="y"), object_matrix(), ([-1, -1, -1], [1, 1, 1]))
-    assert tuple(varying.majorant_shape) == (24, 24, 1)
+    assert tuple(varying.majorant_shape) == (n, n, 1)
+
+
+def test_an_emitting_medium_gets_the_coarser_majorant_grid():
+    """Without a resolution given, a medium whose program emits gets EMISSIVE_MAJORANT_RESOLUTION
+    cells per axis (its collisions estimate the glow), one without emission the finer default; a
+    resolution given is kept."""
+    box = ([-1, -1, -1], [1, 1, 1])
+    glowing = ProgramMedium("glow", wavy_program(emission=2.0), object_matrix(), box)
+    assert glowing.majorant_resolution == EMISSIVE_MAJORANT_RESOLUTION
+    assert tuple(glowing.majorant_shape) == (EMISSIVE_MAJORANT_RESOLUTION, 1, EMISSIVE_MAJORANT_RESOLUTION)
+    assert glowing.coefficients(np.array([[0.2, -0.1, 0.3]]))[2].max() > 0.0
+    dark = ProgramMedium("dark", wavy_program(), object_matrix(), box)
+    assert dark.majorant_resolution == DEFAULT_MAJORANT_RESOLUTION != EMISSIVE_MAJORANT_RESOLUTION
+    given = ProgramMedium("given", wavy_program(emission=2.0), object_matrix(), box, majorant_resolution=10)
+    assert given.majorant_resolution == 10 and given.majorant_shape[0] == 10
+
+
+def test_the_majorant_build_in_slabs_equals_one_walk(monkeypatch):
+    """The majorant grid sampled in slabs on several threads holds the same bounds, bit for bit, as
+    one thread walking every cell (each slab starts at its own place in the random sequence); a
+    slab starting at the sequence's beginning (planted) gives other bounds."""
+    box = ([-1, -1, -1], [1, 1, 1])
+    program = wavy_program(second_axis="y")  # no merged axis: every sampled cell is compared
+    monkeypatch.setattr(program_medium.os, "cpu_count", lambda: 1)
+    one = ProgramMedium("one", program, object_matrix(), box, majorant_resolution=12)
+    monkeypatch.setattr(program_medium.os, "cpu_count", lambda: 5)
+    slabs = ProgramMedium("slabs", program, object_matrix(), box, majorant_resolution=12)
+    assert np.array_equal(one.majorant_grid, slabs.majorant_grid)
+    assert np.array_equal(one.control_rgb, slabs.control_rgb)
+    assert np.array_equal(one.residual_rate, slabs.residual_rate)
+    monkeypatch.setattr(program_medium, "_slab_first_draw", lambda *args: 0)  # planted: each slab restarts
+    planted = ProgramMedium("planted", program, object_matrix(), box, majorant_resolution=12)
+    assert not np.array_equal(one.majorant_grid, planted.majorant_grid)
 
 
 def test_transmittance_matches_quadrature_and_a_planted_error_fails(medium):
