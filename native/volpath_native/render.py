@@ -15,7 +15,7 @@ import numpy as np
 from .camera import crop_window
 from .integrator import Cancelled, Integrator
 from .jit import kernel
-from .round_schedule import fixed_round_samples, timed_round_samples
+from .round_schedule import fixed_round_samples, round_chunks, timed_round_samples
 from .scene import Scene, SceneError
 from .scene_schema import check_settings
 from .shading.images import table_nbytes
@@ -221,11 +221,9 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
             else:
                 n_smp = min(per_round, st.samples - done)
             n_paths = n_pix * n_smp
-            # every thread gets work: at least `threads` chunks of near-equal size (a small image
-            # would otherwise fit one batch and leave the other threads idle)
-            n_chunks = max(-(-n_paths // batch), min(threads, -(-n_paths // 256)))
-            size = -(-n_paths // n_chunks)
-            chunks = [(k, min(k + size, n_paths), done, n_pix) for k in range(0, n_paths, size)]
+            # batches, then smaller chunks at the round's end (round_chunks: the threads finish it
+            # together); a small round still gives every thread work
+            chunks = [(first, end, done, n_pix) for first, end in round_chunks(n_paths, batch, threads)]
             # A round is committed to the film only when complete, so after a cancel every pixel
             # still holds the same number of samples.
             futures = [pool.submit(run, c) for c in chunks]

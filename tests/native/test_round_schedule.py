@@ -48,3 +48,25 @@ def test_a_negative_or_non_finite_time_limit_is_refused_naming_the_field():
     for bad in (-1.0, float("nan"), float("inf")):
         with pytest.raises(SceneError, match="time_limit"):
             check_settings(RenderSettings(time_limit=bad))
+
+
+def test_a_round_splits_into_batches_then_a_shrinking_tail():
+    """round_chunks covers the round's paths in order without gaps: batches first, then chunks
+    shrinking to MIN_TAIL_CHUNK (the threads finish together), no sliver at the end; small rounds
+    spread over the threads, one thread takes batches."""
+    from volpath_native.round_schedule import MIN_TAIL_CHUNK, round_chunks
+
+    def sizes(n, batch, threads):
+        chunks = round_chunks(n, batch, threads)
+        assert chunks[0][0] == 0 and chunks[-1][1] == n
+        assert all(a[1] == b[0] for a, b in zip(chunks, chunks[1:]))
+        return [end - first for first, end in chunks]
+
+    big = sizes(500 * 48 * 48, 65536, 2)
+    assert big[0] == 65536 and sorted(big[:-1], reverse=True) == big[:-1]  # largest first, then shrinking
+    assert max(big[-6:]) <= 65536 // 4 and big[-2] == MIN_TAIL_CHUNK
+    assert MIN_TAIL_CHUNK <= big[-1] < MIN_TAIL_CHUNK * 5 // 4  # the sliver joined the last chunk
+    assert sizes(48 * 48, 65536, 2) == [1152, 1152]  # the first timed round: one pass, both threads
+    assert sizes(300, 65536, 4) == [150, 150]  # chunks of at least 256 paths (rounded up)
+    assert sizes(10 ** 6, 65536, 1) == [62500] * 16  # one thread: no tail to balance
+    assert round_chunks(0, 65536, 2) == []
