@@ -44,7 +44,7 @@ class VolpathRenderSettings(bpy.types.PropertyGroup):
         name="Light Tree", default=True,
         description="Choose a light per shading point by distance and orientation (Cycles' light tree); "
                     "off: by power alone, the same image with more noise where several lights compete")
-    batch_size: IntProperty(name="Batch Size", default=1 << 16, min=1024, max=1 << 24,
+    batch_size: IntProperty(name="Batch Size", default=1 << 14, min=1024, max=1 << 24,
                             description="Paths traced together (memory grows with it)")
     threads: IntProperty(name="Threads", default=0, min=0, max=1024,
                          description="Render threads (0: all cores)")

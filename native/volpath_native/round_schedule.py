@@ -15,8 +15,9 @@ from __future__ import annotations
 #: longest round under a time limit: how often the image and the progress bar are updated
 UPDATE_INTERVAL = 1.0
 #: a round under a time limit holds at most this many batches per thread, bounding the memory of
-#: the results held until the round completes
-MAX_BATCHES_PER_ROUND = 16
+#: the results held until the round completes (64 batches of the default 16k paths: the 1M paths
+#: per thread of 16 batches of 64k before session 20)
+MAX_BATCHES_PER_ROUND = 64
 
 
 def fixed_round_samples(samples: int, threads: int, batch: int, pixels: int) -> int:

@@ -776,7 +776,7 @@ class RenderSettings:
     # path_state_continuation_probability). Measured at equal time (README, Benchmarks, session 15):
     # starting after bounce 1 or 3 cost error per sample in fog; after 6, less error for fewer samples.
     russian_roulette_min_bounces: int = 6
-    batch_size: int = 1 << 16
+    batch_size: int = 1 << 14  # a batch's path state stays in cache: see round_schedule / README session 20
     threads: int = 0  # 0: all cores
     # seconds of rendering after which no further round starts (0: none), Cycles' Time Limit
     # (render_scheduler.cpp: scene synchronisation left out, the samples still cap the render)

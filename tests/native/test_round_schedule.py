@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from volpath_native import RenderSettings, SceneError, render
-from volpath_native.round_schedule import UPDATE_INTERVAL, fixed_round_samples, timed_round_samples
+from volpath_native.round_schedule import (MAX_BATCHES_PER_ROUND, UPDATE_INTERVAL, fixed_round_samples,
+                                          timed_round_samples)
 from volpath_native.scene_schema import check_settings
 
 from test_render_api import _scene
@@ -20,7 +21,7 @@ def test_first_round_is_one_sample_then_rounds_fill_the_interval_and_never_the_t
     kw = dict(threads=2, batch=65536, pixels=48 * 48)
     assert timed_round_samples(0, 10 ** 6, 0.0, 4.0, 0.0, **kw) == 1
     # 1 ms per pass: an update interval's worth, up to the memory bound
-    assert timed_round_samples(1, 10 ** 6, 0.01, 4.0, 1e-3, **kw) == min(int(UPDATE_INTERVAL / 1e-3), 16 * 2 * 65536 // (48 * 48))
+    assert timed_round_samples(1, 10 ** 6, 0.01, 4.0, 1e-3, **kw) == min(int(UPDATE_INTERVAL / 1e-3), MAX_BATCHES_PER_ROUND * 2 * 65536 // (48 * 48))
     # 0.3 s left at 0.1 s per pass: three passes, not ten
     assert timed_round_samples(5, 10 ** 6, 3.7, 4.0, 0.1, **kw) == 3
     # less than half a pass left, or the limit reached: stop
