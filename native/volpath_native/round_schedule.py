@@ -54,23 +54,21 @@ def round_chunks(n_paths: int, batch: int, threads: int) -> list:
     threads: batches while more than 2 x threads batches are left, then guided self-scheduling (each
     chunk the paths left / (2 x threads), at least MIN_TAIL_CHUNK), so the threads finish the round
     within about a tail chunk of each other instead of up to a batch (measured at 48x48 before: 4-5 %
-    of two threads idle at round ends); a round of at most threads x MIN_TAIL_CHUNK paths is split
-    evenly over the threads (chunks of >= 256 paths). Which chunk a path falls in does not change
-    its result."""
+    of two threads idle at round ends); one thread, or a round of at most threads x MIN_TAIL_CHUNK
+    paths, gets even chunks (every thread some, of >= 256 paths). No chunk exceeds a batch (the
+    batch bounds a thread's path memory). Which chunk a path falls in does not change its result."""
     if n_paths <= 0:
         return []
-    if threads > 1 and n_paths <= threads * MIN_TAIL_CHUNK:
-        count = max(1, min(threads, -(-n_paths // 256)))
-    elif threads <= 1:
-        count = -(-n_paths // batch)
-    else:
-        chunks, first = [], 0
-        while first < n_paths:
-            size = min(batch, max(MIN_TAIL_CHUNK, -(-(n_paths - first) // (2 * threads))))
-            if n_paths - first - size < MIN_TAIL_CHUNK // 4:  # no sliver of a chunk after this one
-                size = n_paths - first
-            chunks.append((first, min(first + size, n_paths)))
-            first += size
-        return chunks
-    size = -(-n_paths // count)
-    return [(k, min(k + size, n_paths)) for k in range(0, n_paths, size)]
+    if threads <= 1 or n_paths <= threads * MIN_TAIL_CHUNK:  # even chunks, none above a batch
+        count = max(-(-n_paths // batch), min(threads, -(-n_paths // 256)))
+        size = -(-n_paths // count)
+        return [(k, min(k + size, n_paths)) for k in range(0, n_paths, size)]
+    chunks, first = [], 0
+    while first < n_paths:
+        left = n_paths - first
+        size = min(batch, max(MIN_TAIL_CHUNK, -(-left // (2 * threads))))
+        if left - size < MIN_TAIL_CHUNK // 4 and left <= batch:  # no sliver of a chunk after this one
+            size = left
+        chunks.append((first, first + size))
+        first += size
+    return chunks

@@ -54,7 +54,7 @@ def test_a_negative_or_non_finite_time_limit_is_refused_naming_the_field():
 def test_a_round_splits_into_batches_then_a_shrinking_tail():
     """round_chunks covers the round's paths in order without gaps: batches first, then chunks
     shrinking to MIN_TAIL_CHUNK (the threads finish together), no sliver at the end; small rounds
-    spread over the threads, one thread takes batches."""
+    spread over the threads, one thread takes batches; no chunk exceeds the batch."""
     from volpath_native.round_schedule import MIN_TAIL_CHUNK, round_chunks
 
     def sizes(n, batch, threads):
@@ -71,3 +71,5 @@ def test_a_round_splits_into_batches_then_a_shrinking_tail():
     assert sizes(300, 65536, 4) == [150, 150]  # chunks of at least 256 paths (rounded up)
     assert sizes(10 ** 6, 65536, 1) == [62500] * 16  # one thread: no tail to balance
     assert round_chunks(0, 65536, 2) == []
+    for n in (8000, 2 * 4096 + 1500, 20000, 10 ** 5):  # a small Batch Size bounds every chunk
+        assert max(sizes(n, 1024, 2)) <= 1024
