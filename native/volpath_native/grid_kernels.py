@@ -43,6 +43,7 @@ from collections import namedtuple
 import numpy as np
 
 from .jit import inline_stage_kernel, stage_kernel
+from .emissive_media import bounce_share
 from .sample_pattern import sample2
 from .sampling import uniform1
 from .shading.interpreter import closure_coefficients, run_program
@@ -89,6 +90,10 @@ GridTables = namedtuple("GridTables", [
     "motion_steps",       # int, the object's motion steps (1: static)
     "motion",             # (1,S,16) float64 decomposed steps (instance_motion.motion_table)
     "object_to_index",    # (3,4) float64 object -> padded index space
+    # Emissive media sampled as lights (emissive_media.py): the point technique's density per
+    # majorant cell, against which bounce rays from surface vertices weigh the emission they collect.
+    "emission_sampled",   # bool
+    "emission_density",   # (R0,R1,R2) float64 p_point per world m^3; (1,1,1) when not sampled
 ])
 
 #: Uniform dimensions reserved per stream.
@@ -244,6 +249,26 @@ def program_extinction(G, x, y, z, key, stream, step):
         full = program_coefficients(G, x, y, z)
         tr, tg, tb = tr + (full[3] - tr) / q, tg + (full[4] - tg) / q, tb + (full[5] - tb) / q
     return tr, tg, tb, er, eg, eb
+
+
+@stage_kernel
+def grid_emission(G, x, y, z):
+    """(emission rgb, majorant, emissive_media's p_point) at a world point (a shader-program
+    medium's emission from its reduced program, which keeps it whole: extinction_slice)."""
+    if G.has_program and G.has_extinction_program:
+        px, py, pz = _to_index(G, x, y, z)
+        er = eg = eb = 0.0
+        if 0.0 <= px <= G.shape[0] - 1 and 0.0 <= py <= G.shape[1] - 1 and 0.0 <= pz <= G.shape[2] - 1:
+            run_program(G.extinction_code, G.extinction_init, G.program_tables, G.registers, G.frame, G.attributes,
+                        G.world_to_index, x, y, z, G.images)
+            c = closure_coefficients(G.registers)
+            er, eg, eb = c[6], c[7], c[8]
+    else:
+        c = grid_coefficients(G, x, y, z)
+        er, eg, eb = c[6], c[7], c[8]
+    i, j, k = majorant_cell(G, x, y, z)
+    density = G.emission_density[i, j, k] if G.emission_sampled else 0.0
+    return er, eg, eb, G.majorant[i, j, k], density
 
 
 @stage_kernel
@@ -472,7 +497,7 @@ def _draw(key, stream, j, partner, qmc):
 
 
 @stage_kernel
-def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, bb):
+def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, bb, mis_pdf, mx, my, mz):
     """Walk the majorant cells of one ray and sample tentative collisions, exponential with the
     cells' piecewise-constant rate: one exponential optical depth carried across cell boundaries
     (pbrt-v4 SampleT_maj draws anew per cell; memorylessness makes the two the same).
@@ -487,6 +512,8 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
         middle of the cell's extinction range and the rate its half width: half the lookups of a
         minorant control and a smaller variance exponent (integral of (sigma_t - c)^2 / rate).
     mode 2: plain ratio tracking against the majorant, collecting emission as mode 0 does.
+    mis_pdf > 0: the ray is a bounce from the surface vertex (mx, my, mz) drawn with that solid-angle
+    pdf, whose emission sample (emissive_media) the emission collected here weighs against.
     Returns (t, scattered, weight rgb, emission rgb); residual ratio tracking only fills the weight."""
     wr = wg = wb = 1.0
     er = eg = eb = 0.0
@@ -545,9 +572,10 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                 if peak > rate * (1.0 + _REL_TOL) + _ABS_TOL:
                     _record(G, FLAG_MAJORANT, peak, rate, x, y, z)
                 inv = 1.0 / rate
-                er += wr * emr * inv
-                eg += wg * emg * inv
-                eb += wb * emb * inv
+                ew = inv * _bounce_weight(G, cx, cy, cz, rate, x, y, z, mis_pdf, mx, my, mz)
+                er += wr * emr * ew
+                eg += wg * emg * ew
+                eb += wb * emb * ew
             if mode == 0 and G.has_program:
                 nr, ng, nb = rate - str_, rate - stg, rate - stb
                 # Program media: real vs null from sigma_t alone, channels by throughput (Kutz et al.
@@ -624,9 +652,10 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                         _record(G, FLAG_MAJORANT, peak, rate, x, y, z)
                 inv = 1.0 / rate
                 if mode == 2:  # E[sum of w E / rate over tentative collisions] = integral of T E
-                    er += wr * emr * inv
-                    eg += wg * emg * inv
-                    eb += wb * emb * inv
+                    ew = inv * _bounce_weight(G, cx, cy, cz, rate, x, y, z, mis_pdf, mx, my, mz)
+                    er += wr * emr * ew
+                    eg += wg * emg * ew
+                    eb += wb * emb * ew
                 if G.has_program:  # sampled majorant: signed ratio factors keep it unbiased
                     wr *= 1.0 - qr * inv
                     wg *= 1.0 - qg * inv
@@ -653,6 +682,17 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
 
 
 @inline_stage_kernel
+def _bounce_weight(G, cx, cy, cz, rate, x, y, z, mis_pdf, mx, my, mz):
+    """MIS weight of emission a surface bounce collects at (x, y, z) in cell (cx, cy, cz) against
+    the vertex's emission sample (emissive_media.bounce_share); 1 off sampled media or when the
+    ray is no such bounce (mis_pdf 0: a camera ray, a volume vertex's or a delta lobe's)."""
+    if not (mis_pdf > 0.0 and G.emission_sampled):
+        return 1.0
+    ex, ey, ez = x - mx, y - my, z - mz
+    return bounce_share(mis_pdf, rate, ex * ex + ey * ey + ez * ez, G.emission_density[cx, cy, cz])
+
+
+@inline_stage_kernel
 def _ended(G, wr, wg, wb):
     """No channel carries weight any more (program media may carry negative weights)."""
     if G.has_program:
@@ -668,32 +708,32 @@ def _record(G, flag, value, bound, x, y, z):
 
 
 @stage_kernel
-def grid_free_flight(G, ox, oy, oz, dx, dy, dz, t_max, key, stream, br, bg, bb):
+def grid_free_flight(G, ox, oy, oz, dx, dy, dz, t_max, key, stream, br, bg, bb, mis_pdf, mx, my, mz):
     """Delta tracking with null collisions on [0, t_max] along a unit ray; (br, bg, bb) is the path
     throughput for the channel pdf. Returns (t, scattered, wr, wg, wb, er, eg, eb): the event
     distance (t_max without a scatter), whether a real scattering collision happened at t, the
     factor for beta (sigma_s / pdf included at a scatter, an unbiased transmittance estimate
     otherwise) and the emission to add as L += beta_in * emission (beta_in: the throughput at the
-    segment start)."""
-    return _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, _FREE_FLIGHT, br, bg, bb)
+    segment start). mis_pdf, (mx, my, mz): see _track."""
+    return _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, _FREE_FLIGHT, br, bg, bb, mis_pdf, mx, my, mz)
 
 
 @stage_kernel
 def grid_transmittance(G, ox, oy, oz, dx, dy, dz, t_max, key, stream):
     """Unbiased transmittance estimate (rgb) over [0, t_max] along a unit ray: residual ratio
     tracking with the cell's control extinction (exact where the density is constant)."""
-    r = _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, _TRANSMITTANCE, 1.0, 1.0, 1.0)
+    r = _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, _TRANSMITTANCE, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0)
     return r[2], r[3], r[4]
 
 
 @stage_kernel
-def grid_attenuation(G, ox, oy, oz, dx, dy, dz, t_max, key, stream):
+def grid_attenuation(G, ox, oy, oz, dx, dy, dz, t_max, key, stream, mis_pdf, mx, my, mz):
     """Ratio tracking over [0, t_max] along a unit ray for paths that may no longer scatter:
     (wr, wg, wb, er, eg, eb), an unbiased transmittance estimate and the emission to add as
     L += beta_in x emission. Cycles keeps adding volume emission along such "terminate after
     transparent" paths (kernel/integrator/shade_volume.h volume_integrate_step_scattering: the
     emission is summed before the absorption-only early return)."""
-    r = _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, _RATIO, 1.0, 1.0, 1.0)
+    r = _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, _RATIO, 1.0, 1.0, 1.0, mis_pdf, mx, my, mz)
     return r[2], r[3], r[4], r[5], r[6], r[7]
 
 
@@ -705,7 +745,7 @@ def track_many(G, origins, dirs, t_min, t_max, keys, stream, mode, throughput, t
     for n in range(len(origins)):
         o, d = origins[n], dirs[n]
         r = _track(G, o[0], o[1], o[2], d[0], d[1], d[2], t_min[n], t_max[n], keys[n], stream, mode,
-                   throughput[n, 0], throughput[n, 1], throughput[n, 2])
+                   throughput[n, 0], throughput[n, 1], throughput[n, 2], 0.0, 0.0, 0.0, 0.0)
         t_out[n], scattered[n] = r[0], r[1]
         weight[n, 0], weight[n, 1], weight[n, 2] = r[2], r[3], r[4]
         emission[n, 0], emission[n, 1], emission[n, 2] = r[5], r[6], r[7]

@@ -298,6 +298,12 @@ class GridMedium:
             glow = glow + cell_max(np.abs(self.emission_grid).max(axis=-1))
         majorant = np.maximum(majorant, glow)
         self.majorant_grid = majorant.astype(np.float64)
+        self.emission_bound = glow
+        # emissive_media draws points in proportion to each cell's mean emission
+        mean = np.full(majorant.shape, float(np.abs(self.emission).max()))
+        if self.emission_grid is not None:
+            mean = mean + cell_reduce(np.abs(self.emission_grid).max(axis=-1), np.mean)
+        self.emission_weight = mean
 
     # ------------------------------------------------------------------------------------------
     # Geometry
@@ -435,9 +441,11 @@ class GridMedium:
             g=self.g,
             flags=self._flags, violation=self._violation, stop=self._stop,
             **self._program_tables(),
-            **motion_fields(self.motion, self.motion_object_to_world, self.world_to_index))
+            **motion_fields(self.motion, self.motion_object_to_world, self.world_to_index),
+            emission_sampled=False, emission_density=self._NO_DENSITY)
 
     _NO_GRID = np.zeros((1, 1, 1, 3), dtype=np.float32)
+    _NO_DENSITY = np.zeros((1, 1, 1))
     _NO_PROGRAM = dict(has_program=False, program_code=np.zeros(1, np.int32), program_init=np.zeros(1),
                        program_tables=np.zeros(1), registers=np.zeros(1), frame=np.zeros((2, 3, 4)),
                        attributes=np.zeros((1, 1, 1, 1), np.float32), images=empty_image_table(),

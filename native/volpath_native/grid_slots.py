@@ -13,7 +13,7 @@ no-op for static media).
 """
 from __future__ import annotations
 
-from .grid_kernels import (grid_attenuation, grid_cell_max_extinction, grid_free_flight, grid_nee_distance_pdf,
+from .grid_kernels import (grid_attenuation, grid_cell_max_extinction, grid_emission, grid_free_flight, grid_nee_distance_pdf,
                            grid_nee_distance_sample_pdf, grid_scattering, grid_transmittance)
 from .jit import inline_stage_kernel
 from .medium_motion import place_at_time
@@ -49,17 +49,26 @@ def slot_transmittance(GR, gi, time, o, d, t_max, key, stream):
 
 
 @inline_stage_kernel
-def slot_attenuation(GR, gi, time, o, d, t_max, key, stream):
-    """grid_attenuation of the grid in slot gi: (wr, wg, wb, er, eg, eb)."""
-    return _on_slot(GR, gi, time, grid_attenuation, (o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream))
+def slot_attenuation(GR, gi, time, o, d, t_max, key, stream, mis):
+    """grid_attenuation of the grid in slot gi: (wr, wg, wb, er, eg, eb). mis: (pdf, x, y, z) of
+    the surface bounce the ray is (grid_kernels._track), pdf 0 for none."""
+    return _on_slot(GR, gi, time, grid_attenuation,
+                    (o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream, mis[0], mis[1], mis[2], mis[3]))
 
 
 @inline_stage_kernel
-def slot_free_flight(GR, gi, time, o, d, t_max, key, stream, thr):
-    """grid_free_flight of the grid in slot gi (thr: the path throughput, rgb):
-    (t, scattered, wr, wg, wb, er, eg, eb)."""
+def slot_free_flight(GR, gi, time, o, d, t_max, key, stream, thr, mis):
+    """grid_free_flight of the grid in slot gi (thr: the path throughput, rgb; mis: as
+    slot_attenuation's): (t, scattered, wr, wg, wb, er, eg, eb)."""
     return _on_slot(GR, gi, time, grid_free_flight,
-                    (o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream, thr[0], thr[1], thr[2]))
+                    (o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream, thr[0], thr[1], thr[2], mis[0], mis[1],
+                     mis[2], mis[3]))
+
+
+@inline_stage_kernel
+def slot_emission(GR, gi, time, x):
+    """grid_emission of the grid in slot gi at world point x: (er, eg, eb, majorant, p_point)."""
+    return _on_slot(GR, gi, time, grid_emission, (x[0], x[1], x[2]))
 
 
 @inline_stage_kernel

@@ -25,6 +25,7 @@ from .bsdfs.closures import new_closure_buffer
 from .bsdfs.nodes import surface_node_table
 from .camera import CameraModel, crop_window
 from .film import PixelFilter
+from .emissive_media import emissive_media, no_emissive_media
 from .glow_guide import glow_table
 from .grid_medium import GridMedium
 from .grid_slots import GRID_SLOTS  # the grid tuple is padded to this many (grid_slots.py)
@@ -40,8 +41,9 @@ class Cancelled(Exception):
     pass
 
 
-def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable) -> pk.SceneTables:
-    """Flat arrays of everything the compiled stages read about the scene."""
+def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable, emitters=None) -> pk.SceneTables:
+    """Flat arrays of everything the compiled stages read about the scene (emitters: the
+    emissive_media table; none sampled when not given)."""
     st = scene.settings
     mats = scene.materials
     ids = accel.material_ids
@@ -97,7 +99,7 @@ def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable) -> pk.Scen
         transmission_bounces=int(st.transmission_bounces), transparent_bounces=int(st.transparent_bounces),
         rr_min_bounces=int(st.russian_roulette_min_bounces),
         volume_sampling=pk.VOLUME_SAMPLING[st.volume_sampling],
-        glow=glow_table(scene.lights, media))
+        glow=glow_table(scene.lights, media), emitters=emitters if emitters is not None else no_emissive_media())
 
 
 def _may_pass_shadows(material) -> bool:
@@ -129,7 +131,11 @@ class Integrator:
         self.camera = CameraModel(scene.camera, scene.film)
         self.filter = PixelFilter(scene.film)
         self.crop = crop_window(scene.film)
-        self.tables = scene_tables(scene, self.accel, self.media)
+        # emissive grid media sampled as lights from surface vertices, and each one's point density
+        # per majorant cell for the grid tables (render_paths)
+        self.emitters, self._emission_density, _ = emissive_media(
+            self.media, self.accel, any(_may_pass_shadows(m) for m in scene.materials if m.surface != "null"))
+        self.tables = scene_tables(scene, self.accel, self.media, self.emitters)
         self.surface_nodes = surface_node_table([m.bsdf_nodes() for m in scene.materials])
         self.images = image_table(scene.images)  # one copy of every image, however many nodes read it
         self.surface_programs = surface_program_tables(scene.materials, self.accel, self.images)
@@ -235,7 +241,8 @@ class Integrator:
         margin = 2.0 * self.accel.epsilon
         # grid tables with a violation record private to this batch (threads never share it),
         # padded so that scenes with up to GRID_SLOTS grids share one compiled signature
-        grid_tables = tuple(grid._call_tables()._replace(stop=self._stop) for grid in self.grids)
+        grid_tables = tuple(self._sampled(slot, grid._call_tables()._replace(stop=self._stop))
+                            for slot, grid in enumerate(self.grids))
         grid_tables += (_no_grid_tables(),) * max(GRID_SLOTS - len(grid_tables), 0)
         if cancel is not None and cancel():
             raise Cancelled()
@@ -256,6 +263,11 @@ class Integrator:
         stats["budget"] = np.array([grid.check_flags(tables) for grid, tables in zip(self.grids, grid_tables)],
                                    dtype=np.int64)
         return L[:, :3], stats
+
+    def _sampled(self, slot, tables):
+        """Grid tables with emissive_media's point density when the medium is sampled as a light."""
+        density = self._emission_density.get(slot)
+        return tables if density is None else tables._replace(emission_sampled=True, emission_density=density)
 
     def _trace_stepwise(self, buffers, grid_tables, n, F, I, K, C, o32, d32, t32, L, alive, margin, counts, cancel):
         """wavefront.trace_batch's loop with each stage called from Python (counts: its N_COUNTS)."""
@@ -290,11 +302,12 @@ class Integrator:
         queued, state = m, self._cull_state
         learning = state[wavefront.CULL_DECIDED] == wavefront.CULL_UNDECIDED
         mask = ALL_MASK
-        if self.accel.masked and state[wavefront.CULL_DECIDED] == 1:  # opaque first, then only see-through
+        # opaque first, then only see-through (direct emissive-media samples end at the first)
+        if self.accel.masked and (state[wavefront.CULL_DECIDED] == 1 or self.emitters.direct):
             blocked = self.accel.occluded_raw(Q.o32[:m], Q.d32[:m], Q.t32[:m], self._times(Q.F, pk.S_TIME, m),
                                               MASK_OPAQUE)
             counts[wavefront.SHADOW_RAYS] += m
-            m = pk.drop_blocked(Q, m, blocked)
+            m = pk.drop_blocked(Q, m, blocked, L)
             mask = MASK_SEE_THROUGH
         for step in range(pk.MAX_VOLUME_BOUNDS):
             if not m:
@@ -324,10 +337,10 @@ class _Buffers:
         self.o32, self.d32 = np.empty((capacity, 3), np.float32), np.empty((capacity, 3), np.float32)
         self.t32 = np.empty(capacity, np.float32)
         self.alive = np.empty(capacity, bool)
-        self.hits = wavefront.new_hit_buffers(2 * capacity)  # Embree's answers, for paths or shadow rays
+        self.hits = wavefront.new_hit_buffers(3 * capacity)  # Embree's answers, for paths or shadow rays
         self.closures = new_closure_buffer()  # the lobes of the surface being shaded
-        # up to two shadow rays per path and iteration (medium NEE + surface NEE)
-        q = 2 * capacity
+        # up to three shadow rays per path and iteration (medium NEE + surface NEE + emissive media)
+        q = 3 * capacity
         self.queue = pk.ShadowQueue(np.empty((q, pk.NSF)), np.empty((q, pk.NSI), np.int64), np.empty(q, np.uint64),
                                     np.empty((q, volumes), np.int8), np.empty((q, 3), np.float32),
                                     np.empty((q, 3), np.float32), np.empty(q, np.float32))

@@ -31,10 +31,11 @@ import numpy as np
 from .bsdfs.closures import (LABEL_DIFFUSE, LABEL_TRANSMIT, LABEL_TRANSPARENT, setup_surface_tangent,
                              surface_eval, surface_is_transmissive, surface_sample, surface_transparency)
 from .camera import camera_ray1, ray_time1
+from .emissive_media import bounce_share, sample_emissive_point
 from .film import filter_offset1
 from .grid_kernels import STREAM_DIMENSIONS
-from .grid_slots import (slot_attenuation, slot_cell_max_extinction, slot_free_flight, slot_g, slot_nee_distance_pdf,
-                         slot_nee_distance_sample_pdf, slot_scattering, slot_transmittance)
+from .grid_slots import (slot_attenuation, slot_cell_max_extinction, slot_emission, slot_free_flight, slot_g,
+                         slot_nee_distance_pdf, slot_nee_distance_sample_pdf, slot_scattering, slot_transmittance)
 from .glow_guide import (GLOW_SHARE, glow_pdf, glow_sample, guided_label, medium_glow_pdf, medium_glow_sample,
                          medium_glow_share, mixture_pdf, surface_has_delta)
 from .jit import inline_stage_kernel, stage_kernel
@@ -77,7 +78,8 @@ SI_PID, SI_PURPOSE = 0, 1
 NSI = 2
 # Grid tracking draws from its own streams of dimensions (grid_kernels): one per iteration,
 # purpose, shadow step and grid, far above the per-iteration dimensions of the path.
-P_FREE_FLIGHT, P_NEE_SEGMENT, P_LAMP, P_SHADOW_MEDIUM, P_SHADOW_SURFACE = range(5)
+P_FREE_FLIGHT, P_NEE_SEGMENT, P_LAMP, P_SHADOW_MEDIUM, P_SHADOW_SURFACE, P_SHADOW_EMISSION, P_EMISSION_DIRECT = range(7)
+N_PURPOSES = 7
 _STREAM_BASE = 1 << 40
 _MAX_STEPS, _MAX_GRIDS = 64, 16
 
@@ -85,11 +87,12 @@ _MAX_STEPS, _MAX_GRIDS = 64, 16
 D_CHANNEL, D_DISTANCE, D_MED_SELECT, D_MED_TECH, D_MED_T, D_MED_CHANNEL, D_MED_LU, D_MED_LV, \
     D_PHASE_U, D_PHASE_V, D_RR, D_SURF_SELECT, D_SURF_LU, D_SURF_LV, D_BSDF_U, D_BSDF_V, D_SURF_PICK = range(17)
 D_MED_ROULETTE = 18  # its own Sobol' pair (18, 19)
-assert D_MED_ROULETTE < DIMS_PER_EVENT
+D_EMIT_CELL, D_EMIT_U, D_EMIT_V, D_EMIT_W = 17, 20, 21, 22  # a surface vertex's emissive-media sample
+assert D_EMIT_W < DIMS_PER_EVENT
 # pairs drawn together by _u2 (even offset, partner next)
 assert all(a % 2 == 0 and b == a + 1 for a, b in ((D_CHANNEL, D_DISTANCE), (D_MED_T, D_MED_CHANNEL),
                                                   (D_MED_LU, D_MED_LV), (D_PHASE_U, D_PHASE_V),
-                                                  (D_SURF_LU, D_SURF_LV), (D_BSDF_U, D_BSDF_V)))
+                                                  (D_SURF_LU, D_SURF_LV), (D_BSDF_U, D_BSDF_V), (D_EMIT_U, D_EMIT_V)))
 #: survival probability of a grid next-event vertex in a majorant cell that looked empty (see
 #: _empty_cell_survival)
 EMPTY_CELL_SURVIVAL = 0.125
@@ -110,7 +113,8 @@ SceneTables = namedtuple("SceneTables", [
     "vol_grid", "has_grids",
     "epsilon", "any_medium", "max_bounces", "diffuse_bounces", "volume_bounces", "glossy_bounces",
     "transmission_bounces", "transparent_bounces", "rr_min_bounces",
-    "volume_sampling", "glow"])  # glow: glow_guide.GlowTable
+    "volume_sampling", "glow",  # glow: glow_guide.GlowTable
+    "emitters"])  # emissive_media.EmissiveMedia
 
 
 @stage_kernel
@@ -178,7 +182,7 @@ def _add_radiance(L, pid, v):
 @stage_kernel
 def grid_stream(iteration, purpose, step, grid):
     """First dimension of the stream of grid `grid` for this iteration/purpose/shadow step."""
-    index = ((iteration * 5 + purpose) * _MAX_STEPS + min(step, _MAX_STEPS - 1)) * _MAX_GRIDS + grid
+    index = ((iteration * N_PURPOSES + purpose) * _MAX_STEPS + min(step, _MAX_STEPS - 1)) * _MAX_GRIDS + grid
     return np.uint64(_STREAM_BASE) + np.uint64(index) * np.uint64(STREAM_DIMENSIONS)
 
 
@@ -502,7 +506,8 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
                     n_shadow = _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
                                          Q, n_shadow, margin)
                 beta, scatter, t_scatter, event_g, grid_event = _grid_segment(
-                    S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat, F[p, TIME])
+                    S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat, F[p, TIME],
+                    _bounce_mis(S, F, I, p))
             elif not tat and _max3(ss) > 0.0:
                 if n_lights > 0:
                     n_shadow = _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
@@ -600,7 +605,7 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
             _set_mis_origin(F, I, p, o, d, t_seg, MODE_VOLUME)  # the segment its NEE chose a light for
             alive[p] = _russian_roulette(S, F, I, K, p, iteration)
         else:
-            alive[p], n_shadow = _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, hit_inst[p],
+            alive[p], n_shadow = _surface(S, T, GR, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, hit_inst[p],
                                           hit_t[p], hit_u[p], hit_v[p], L, Q, n_shadow, margin, stats)
         if alive[p]:
             alive[p] = F[p, BETA] > 0.0 or F[p, BETA + 1] > 0.0 or F[p, BETA + 2] > 0.0
@@ -890,7 +895,107 @@ def _textured_light_value(S, T, SP, SPS, row, u1, u2, w, value, time):
 
 
 @inline_stage_kernel
-def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t, hu, hv, L, Q, n_shadow, margin,
+def _push_surface_shadow(S, F, C, K, Q, p, n_shadow, prim, front, above, below, n_face, wi, dist, contrib, margin,
+                         pid, purpose):
+    """Queue a surface vertex's shadow ray toward wi (from below the surface when it transmits:
+    the ray then crosses into or out of the surface's volume)."""
+    transmits = _dot3(wi, n_face) < 0.0
+    q = n_shadow
+    n_shadow = _push_shadow(Q, C, K, p, n_shadow, below if transmits else above, wi, dist, contrib, _get3(F, p, ST),
+                            margin, pid, purpose, F[p, TIME])
+    if transmits and S.tri_volume[prim] >= 0:
+        cross_boundary(S, Q.C, q, prim, front)
+        _set3(Q.F, q, S_ST, stack_sigma_t(S, Q.C, q))
+    return n_shadow
+
+
+@inline_stage_kernel
+def _bounce_mis(S, F, I, p):
+    """(pdf, x, y, z) for grid tracking: the solid-angle pdf of the surface bounce path p's ray is
+    and that vertex, whose emissive-media sample the emission it collects weighs against
+    (emissive_media); pdf 0 for camera rays, volume vertices' rays and delta bounces."""
+    if S.emitters.count == 0 or I[p, MIS_MODE] == MODE_VOLUME:
+        return 0.0, 0.0, 0.0, 0.0
+    return F[p, PREV_PDF], F[p, MIS_P], F[p, MIS_P + 1], F[p, MIS_P + 2]
+
+
+@inline_stage_kernel
+def _emissive_media_nee(S, GR, CB, count, BT, F, C, K, Q, p, iteration, prim, front, pb, above, below, n_face, ns,
+                        wi_view, beta, guide, n_shadow, margin, pid):
+    """A surface vertex's sample of the emissive media (emissive_media): a point x drawn by the
+    media's emission bounds, a shadow ray to it carrying f |cos| E(x) / (p_point r^2) x its MIS
+    weight against the vertex's bounce (which collects the same emission along its ray)."""
+    u1, u2 = _u2(K, p, iteration, D_EMIT_U)
+    gi, x, point_pdf = sample_emissive_point(S.emitters, _u(K, p, iteration, D_EMIT_CELL), u1, u2,
+                                             _u(K, p, iteration, D_EMIT_W))
+    if not point_pdf > 0.0:
+        return n_shadow
+    # the distance and direction from the shadow ray's origin: above the surface, or below it
+    # for a transmitting direction (the bounce starts there too)
+    origin = above
+    dx, dy, dz = x[0] - above[0], x[1] - above[1], x[2] - above[2]
+    if dx * n_face[0] + dy * n_face[1] + dz * n_face[2] < 0.0:
+        origin = below
+        dx, dy, dz = x[0] - below[0], x[1] - below[1], x[2] - below[2]
+    dist2 = dx * dx + dy * dy + dz * dz
+    if not dist2 > 0.0:
+        return n_shadow
+    dist = np.sqrt(dist2)
+    wi = (dx / dist, dy / dist, dz / dist)
+    f, bsdf_pdf = surface_eval(CB, count, BT, wi_view, wi, ns, n_face)
+    if not _max3(f) > 0.0:
+        return n_shadow
+    if guide:
+        bsdf_pdf = mixture_pdf(bsdf_pdf, glow_pdf(S.glow, pb, wi))
+    er, eg, eb, rate, density = slot_emission(GR, gi, F[p, TIME], x)
+    if not max(abs(er), max(abs(eg), abs(eb))) > 0.0:
+        return n_shadow
+    # the bounce's weight from the vertex point itself (its MIS origin): both sides the same number
+    mx, my, mz = x[0] - pb[0], x[1] - pb[1], x[2] - pb[2]
+    w = 1.0 - bounce_share(bsdf_pdf, rate, mx * mx + my * my + mz * mz, density)
+    contrib = _scale3(_mul3(_mul3(beta, f), (er, eg, eb)), w / (point_pdf * dist2))
+    if not _max3(contrib) > 0.0:
+        return n_shadow
+    if S.emitters.direct:  # the transmittance here; the shadow ray only asks about opaque geometry
+        contrib = _mul3(_mul3(contrib, transmittance3(_get3(F, p, ST), dist)), _sampled_media_transmittance(
+            S.emitters, GR, origin, wi, dist, K[p], grid_stream(iteration, P_EMISSION_DIRECT, 0, 0), F[p, TIME]))
+        if not _max3(contrib) > 0.0:
+            return n_shadow
+        return _push_shadow(Q, C, K, p, n_shadow, origin, wi, dist, contrib, _get3(F, p, ST), 0.0, pid,
+                            P_EMISSION_DIRECT, F[p, TIME])
+    return _push_surface_shadow(S, F, C, K, Q, p, n_shadow, prim, front, above, below, n_face, wi, dist, contrib,
+                                0.0, pid, P_SHADOW_EMISSION)
+
+
+@inline_stage_kernel
+def _sampled_media_transmittance(E, GR, o, d, dist, key, stream, time):
+    """Transmittance (rgb) of the grids over [0, dist] of ray (o, d) in a scene whose only volumes
+    are the sampled media (E.direct), each box-bounded: each one's tracking across the part of the
+    segment inside its box (a slab test in its index space)."""
+    t0 = t1 = t2 = 1.0
+    for k in range(E.count):
+        M = E.world_to_index[k]
+        near, far = 0.0, dist
+        for axis in range(3):
+            oa = M[axis, 0] * o[0] + M[axis, 1] * o[1] + M[axis, 2] * o[2] + M[axis, 3]
+            da = M[axis, 0] * d[0] + M[axis, 1] * d[1] + M[axis, 2] * d[2]
+            lo, hi = E.clip[k, 0, axis], E.clip[k, 1, axis]
+            if da == 0.0:
+                if not lo <= oa <= hi:
+                    far = -1.0
+            else:
+                a, b = (lo - oa) / da, (hi - oa) / da
+                near, far = max(near, min(a, b)), min(far, max(a, b))
+        if far > near:
+            gi = E.slot[k]
+            r = slot_transmittance(GR, gi, time, (o[0] + d[0] * near, o[1] + d[1] * near, o[2] + d[2] * near), d,
+                                   far - near, key, stream + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS))
+            t0, t1, t2 = t0 * r[0], t1 * r[1], t2 * r[2]
+    return t0, t1, t2
+
+
+@inline_stage_kernel
+def _surface(S, T, GR, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t, hu, hv, L, Q, n_shadow, margin,
              stats):
     """Shade a surface hit with its material's closures (bsdfs.closures); returns (continues,
     shadow queue length). Cycles kernel/integrator/shade_surface.h: emission, light sampling
@@ -958,13 +1063,11 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
             w = power_heuristic(light_pdf, bsdf_pdf) if light_pdf > 0.0 else 1.0
             contrib = _scale3(_mul3(_mul3(beta, f), (v0, v1, v2)), w)
             if _max3(contrib) > 0.0:
-                transmits = _dot3(wi, n_face) < 0.0
-                q = n_shadow
-                n_shadow = _push_shadow(Q, C, K, p, n_shadow, below if transmits else above, wi, dist, contrib,
-                                        _get3(F, p, ST), margin, pid, P_SHADOW_SURFACE, F[p, TIME])
-                if transmits and S.tri_volume[prim] >= 0:  # the shadow ray crosses into / out of the volume
-                    cross_boundary(S, Q.C, q, prim, front)
-                    _set3(Q.F, q, S_ST, stack_sigma_t(S, Q.C, q))
+                n_shadow = _push_surface_shadow(S, F, C, K, Q, p, n_shadow, prim, front, above, below, n_face, wi,
+                                                dist, contrib, margin, pid, P_SHADOW_SURFACE)
+    if S.emitters.count > 0:
+        n_shadow = _emissive_media_nee(S, GR, CB, count, BT, F, C, K, Q, p, iteration, prim, front, pb, above, below,
+                                       n_face, ns, wi_view, beta, guide, n_shadow, margin, pid)
     u_bsdf, v_bsdf = _u2(K, p, iteration, D_BSDF_U)
     u_pick = _u(K, p, iteration, D_SURF_PICK)
     if guide and u_pick < GLOW_SHARE:  # toward a glowing lamp (the pick number rescaled picks it)
@@ -1011,9 +1114,9 @@ def _surface(S, T, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst, t,
 # earlier of two independent collision processes is the first event of their sum).
 # ---------------------------------------------------------------------------------------------
 @inline_stage_kernel
-def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat, time):
+def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat, time, mis):
     """Free flight of path p inside grid volumes (placed at its shutter time); returns (beta,
-    scattered, t, event g, grid event)."""
+    scattered, t, event g, grid event). mis: _bounce_mis."""
     key = K[p]
     stream0 = grid_stream(iteration, P_FREE_FLIGHT, 0, 0)
     if tat:  # attenuation and emission only (Cycles adds volume emission on these paths too)
@@ -1022,7 +1125,7 @@ def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st
             gi = S.vol_grid[v]
             if C[p, v] > 0 and gi >= 0:
                 w0, w1, w2, e0, e1, e2 = slot_attenuation(GR, gi, time, o, d, t_seg, key,
-                                                          stream0 + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS))
+                                                          stream0 + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS), mis)
                 _add_radiance(L, pid, _mul3(_mul3(beta_in, w), (e0, e1, e2)))
                 w = _mul3(w, (w0, w1, w2))
         return _mul3(_mul3(beta, w), transmittance3(st, t_seg)), False, np.inf, g, False
@@ -1042,7 +1145,8 @@ def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st
         if C[p, v] <= 0 or gi < 0:
             continue
         t, scattered, w0, w1, w2, e0, e1, e2 = slot_free_flight(
-            GR, gi, time, o, d, t_end, key, stream0 + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS), _mul3(beta, w))
+            GR, gi, time, o, d, t_end, key, stream0 + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS), _mul3(beta, w),
+            mis)
         _add_radiance(L, pid, _mul3(_mul3(beta_in, w), (e0, e1, e2)))
         w = _mul3(w, (w0, w1, w2))
         if scattered:
@@ -1278,13 +1382,17 @@ def shadow_step(S, GR, SN, BT, CB, SP, SPS, Q, m, hit_t, hit_prim, hit_inst, hit
 
 
 @stage_kernel
-def drop_blocked(Q, m, blocked):
+def drop_blocked(Q, m, blocked, L):
     """Keep the shadow rays not blocked (an opaque occluder found: accel.MASK_OPAQUE), in their
     order at the front of the queue, rays included; returns how many. Their random streams are
-    keyed by path and purpose, not by queue slot, so the image is the one without this cull."""
+    keyed by path and purpose, not by queue slot, so the image is the one without this cull.
+    Direct emissive-media samples (their transmittance already in) end here: added to L."""
     out = 0
     for q in range(m):
         if blocked[q]:
+            continue
+        if Q.I[q, SI_PURPOSE] == P_EMISSION_DIRECT:
+            _add_radiance(L, Q.I[q, SI_PID], _get3(Q.F, q, S_CONTRIB))
             continue
         if out != q:
             _move_entry(Q.F, Q.I, Q.K, Q.C, q, out)

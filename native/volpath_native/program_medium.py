@@ -80,9 +80,10 @@ CORRECTION_PROBABILITY = 0.125
 
 @stage_kernel
 def _cell_extrema(code, init, tables, regs, frame, attributes, world_to_index, index_to_world, cells, n_axis,
-                  key, max_extinction, max_emission, low_rgb, high_rgb, bad, images, i_start, i_end, first_draw):
+                  key, max_extinction, max_emission, mean_emission, low_rgb, high_rgb, bad, images, i_start, i_end,
+                  first_draw):
     """Per majorant cell of the slab i_start <= i < i_end: the largest max-channel sigma_t and
-    |emission|, and each channel's smallest and largest sigma_t (low_rgb, high_rgb) over n_axis^3
+    |emission|, the mean max-channel |emission|, and each channel's smallest and largest sigma_t (low_rgb, high_rgb) over n_axis^3
     stratified jittered points (index space cell i spans [i, i + 1] x cell size), their jitter from
     draw first_draw on (_slab_first_draw); bad[0] counts evaluations with non-finite or negative
     coefficients before sanitising."""
@@ -93,6 +94,7 @@ def _cell_extrema(code, init, tables, regs, frame, attributes, world_to_index, i
             for k in range(rz):
                 best_t = 0.0
                 best_e = 0.0
+                sum_e = 0.0
                 lo0 = lo1 = lo2 = np.inf
                 hi0 = hi1 = hi2 = 0.0
                 for a in range(n_axis):
@@ -119,11 +121,14 @@ def _cell_extrema(code, init, tables, regs, frame, attributes, world_to_index, i
                                         bad[0] += 1
                             c9 = closure_coefficients(regs)
                             best_t = max(best_t, max(c9[3], max(c9[4], c9[5])))
-                            best_e = max(best_e, max(abs(c9[6]), max(abs(c9[7]), abs(c9[8]))))
+                            e = max(abs(c9[6]), max(abs(c9[7]), abs(c9[8])))
+                            best_e = max(best_e, e)
+                            sum_e += e
                             lo0, lo1, lo2 = min(lo0, c9[3]), min(lo1, c9[4]), min(lo2, c9[5])
                             hi0, hi1, hi2 = max(hi0, c9[3]), max(hi1, c9[4]), max(hi2, c9[5])
                 max_extinction[i, j, k] = best_t
                 max_emission[i, j, k] = best_e
+                mean_emission[i, j, k] = sum_e / (n_axis * n_axis * n_axis)
                 low_rgb[i, j, k, 0], low_rgb[i, j, k, 1], low_rgb[i, j, k, 2] = lo0, lo1, lo2
                 high_rgb[i, j, k, 0], high_rgb[i, j, k, 1], high_rgb[i, j, k, 2] = hi0, hi1, hi2
 
@@ -145,13 +150,15 @@ def _neighbourhood(grid, reduce):
     return out
 
 
-def _collapse_flat_axes(max_extinction, max_emission, low_rgb, high_rgb):
+def _collapse_flat_axes(max_extinction, max_emission, low_rgb, high_rgb, mean_emission):
     """Merge the majorant cells along each axis where the sampled bounds hardly change along it (a
     height fog varies only in z): every walk of the grid (free flight, shadow transmittance, the
     next-event distance) steps through fewer cells. An axis merges when no cell's bounds (largest
     extinction and emission, each channel's extinction range) move by more than
-    FLAT_AXIS_TOLERANCE x the cell's own largest value (at least MAJORANT_FLOOR of the medium's)."""
-    arrays = [(max_extinction, np.max), (max_emission, np.max), (low_rgb, np.min), (high_rgb, np.max)]
+    FLAT_AXIS_TOLERANCE x the cell's own largest value (at least MAJORANT_FLOOR of the medium's).
+    The mean emission follows (averaged along a merged axis) without a say."""
+    arrays = [(max_extinction, np.max), (max_emission, np.max), (low_rgb, np.min), (high_rgb, np.max),
+              (mean_emission, np.mean)]
     for axis in range(3):
         if max_extinction.shape[axis] == 1:
             continue
@@ -159,7 +166,7 @@ def _collapse_flat_axes(max_extinction, max_emission, low_rgb, high_rgb):
         scale = np.maximum(scale, MAJORANT_FLOOR * max(float(scale.max()), 1e-300))
         merged = [reduce(a, axis=axis, keepdims=True) for a, reduce in arrays]
         flat = all(np.all(np.abs(m - a) <= FLAT_AXIS_TOLERANCE * (scale if a.ndim == 3 else scale[..., None]))
-                   for m, (a, _) in zip(merged, arrays))
+                   for m, (a, _) in zip(merged[:4], arrays[:4]))
         if flat:
             arrays = [(np.ascontiguousarray(m), reduce) for m, (_, reduce) in zip(merged, arrays)]
     return tuple(a for a, _ in arrays)
@@ -295,7 +302,7 @@ class ProgramMedium(GridMedium):
         extent = self.shape - 1
         shape = tuple(int(v) for v in np.minimum(resolution, np.maximum(extent, 1)))
         cells = extent / np.array(shape, dtype=np.float64)  # index units per majorant cell
-        max_extinction, max_emission = np.zeros(shape), np.zeros(shape)
+        max_extinction, max_emission, mean_emission = np.zeros(shape), np.zeros(shape), np.zeros(shape)
         low_rgb, high_rgb = np.zeros(shape + (3,)), np.zeros(shape + (3,))
         p = self.program
         world_to_index = np.ascontiguousarray(self.world_to_index[:3])
@@ -308,14 +315,14 @@ class ProgramMedium(GridMedium):
         def sample_slab(n):
             _cell_extrema(p.code, p.init, p.tables, np.zeros_like(self._registers), self.frame, self.attributes,
                           world_to_index, index_to_world, cells, SAMPLES_PER_CELL_AXIS, seed_key(0x5EED),
-                          max_extinction, max_emission, low_rgb, high_rgb, bad[n], self.images, slabs[n],
+                          max_extinction, max_emission, mean_emission, low_rgb, high_rgb, bad[n], self.images, slabs[n],
                           slabs[n + 1], _slab_first_draw(slabs[n], shape, SAMPLES_PER_CELL_AXIS))
 
         with ThreadPoolExecutor(max_workers=len(slabs) - 1) as pool:
             list(pool.map(sample_slab, range(len(slabs) - 1)))
         self.invalid_evaluations = int(bad.sum())
-        max_extinction, max_emission, low_rgb, high_rgb = _collapse_flat_axes(max_extinction, max_emission, low_rgb,
-                                                                             high_rgb)
+        max_extinction, max_emission, low_rgb, high_rgb, mean_emission = _collapse_flat_axes(
+            max_extinction, max_emission, low_rgb, high_rgb, mean_emission)
         shape = max_extinction.shape
         cells = extent / np.array(shape, dtype=np.float64)
         dilated = _neighbourhood(max_extinction, np.maximum)
@@ -326,6 +333,10 @@ class ProgramMedium(GridMedium):
         peak_any = max(peak, float(glow.max()))
         floor = max(MAJORANT_FLOOR * peak_any, EMISSION_FLOOR * float(glow.max()))
         majorant = np.maximum(np.maximum(dilated, glow) * MAJORANT_MARGIN, floor)
+        self.emission_bound = glow  # sampled, dilated
+        # the sampled mean per cell: emissive_media draws points in proportion to it (where the
+        # bound is ~4x the emission at points drawn by it on the procedural fire, this follows it)
+        self.emission_weight = mean_emission
         self.majorant_shape = np.array(shape, dtype=np.int64)
         self.cell_size = cells
         self.majorant_grid = majorant.astype(np.float64)

@@ -134,10 +134,11 @@ def trace_batch(S, T, GR, SN, BT, CB, SP, SPS, E, H, n, F, I, K, C, o32, d32, t3
             queued = m
             learning = cull_state[CULL_DECIDED] == CULL_UNDECIDED
             mask = ALL_MASK
-            if E.masked and cull_state[CULL_DECIDED] == 1:  # opaque hits end rays; the rest step through
+            # opaque hits end rays; the rest step through (direct emissive-media samples end here)
+            if E.masked and (cull_state[CULL_DECIDED] == 1 or S.emitters.direct):
                 _occluded(E, H, Q, m, MASK_OPAQUE)
                 counts[SHADOW_RAYS] += m
-                m = pk.drop_blocked(Q, m, H.blocked[:m])
+                m = pk.drop_blocked(Q, m, H.blocked[:m], L)
                 mask = MASK_SEE_THROUGH
             for step in range(pk.MAX_VOLUME_BOUNDS):
                 if not m:
