@@ -923,7 +923,7 @@ def _bounce_mis(S, F, I, p):
 def _emissive_media_nee(S, GR, CB, count, BT, F, C, K, Q, p, iteration, prim, front, pb, above, below, n_face, ns,
                         wi_view, beta, guide, n_shadow, margin, pid):
     """A surface vertex's sample of the emissive media (emissive_media): a point x drawn by the
-    media's emission bounds, a shadow ray to it carrying f |cos| E(x) / (p_point r^2) x its MIS
+    cells' mean emission, a shadow ray to it carrying f |cos| E(x) / (p_point r^2) x its MIS
     weight against the vertex's bounce (which collects the same emission along its ray)."""
     u1, u2 = _u2(K, p, iteration, D_EMIT_U)
     gi, x, point_pdf = sample_emissive_point(S.emitters, _u(K, p, iteration, D_EMIT_CELL), u1, u2,
