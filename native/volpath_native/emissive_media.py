@@ -22,8 +22,8 @@ Sampled media: static grid or program media whose boundary mesh is a box aligned
 index axes (a Volume object's box, a cube: a program medium's box is its object's, a little
 padded), points drawn in that box only -- a point outside a shaped mesh is no part of the medium
 (the volume stack confines it), so media that move or a shaped mesh's are left to the bounce rays
-(their collisions then weigh 1: p_point = 0 there). Cells whose sampled emission bound missed some glow likewise
-leave it to the bounces: unbiased whatever the weights.
+(their collisions then weigh 1: p_point = 0 there). Cells whose sampled mean missed some glow
+likewise leave it to the bounces: unbiased whatever the weights.
 """
 from __future__ import annotations
 
@@ -89,34 +89,31 @@ def _overlap(grid, lo, hi):
 def emissive_media(media, accel, see_through_surfaces=True):
     """(EmissiveMedia, {slot: (R0, R1, R2) p_point per majorant cell}) for the grid media of a
     MediaTable (slots in media.grid_volumes' order) that may emit (GridMedium.emission_weight > 0
-    somewhere), are static and whose boundary mesh fills their box. Reasons a medium is left out
-    are returned too, as (name, reason). see_through_surfaces: whether any material may let
-    shadow rays through (transparency): no direct shadows then."""
-    chosen, skipped = [], []
+    somewhere), are static and whose boundary mesh fills their box. see_through_surfaces: whether
+    any surface may let shadow rays through (transparency): no direct shadows then."""
+    chosen = []
     for slot, (volume, grid) in enumerate(media.grid_volumes):
-        bound = getattr(grid, "emission_weight", None)
-        if bound is None or not np.any(bound > 0.0):
+        mean = getattr(grid, "emission_weight", None)
+        if mean is None or not np.any(mean > 0.0):
             continue
         if grid.motion is not None or media.boundaries_move:
-            skipped.append((grid.name, "it moves"))
             continue
         box = mesh_box(grid, accel.triangle_corners(np.flatnonzero(media.tri_volume == volume)))
-        if box is None:
-            skipped.append((grid.name, "its mesh is not a box along its axes"))
+        if box is None:  # a shaped mesh
             continue
         inside = _overlap(grid, *box) * abs(float(np.linalg.det(grid.index_to_world[:3, :3])))  # m^3 per cell
-        bound = np.where(np.isfinite(bound) & (bound > 0.0) & (inside > 0.0), bound, 0.0)
-        weights = bound * inside
+        mean = np.where(np.isfinite(mean) & (mean > 0.0) & (inside > 0.0), mean, 0.0)
+        weights = mean * inside
         if not (np.isfinite(weights.sum()) and weights.sum() > 0.0):
             continue
-        chosen.append((slot, grid, weights, bound, box))
+        chosen.append((slot, grid, weights, mean, box))
     if not chosen:
-        return no_emissive_media(), {}, skipped
+        return no_emissive_media(), {}
     total = sum(float(weights.sum()) for _, _, weights, _, _ in chosen)
     cdf = np.cumsum(np.concatenate([weights.ravel() for _, _, weights, _, _ in chosen])) / total
     cdf[-1] = 1.0
     share = float(EMISSION_SHARE)
-    densities = {slot: share * bound / total for slot, _, _, bound, _ in chosen}  # per m^3 where points fall
+    densities = {slot: share * mean / total for slot, _, _, mean, _ in chosen}  # per m^3 where points fall
     table = EmissiveMedia(
         count=len(chosen),
         slot=np.array([slot for slot, *_ in chosen], np.int64),
@@ -129,7 +126,7 @@ def emissive_media(media, accel, see_through_surfaces=True):
         clip=np.ascontiguousarray([np.stack(box) for *_, box in chosen], np.float64), share=share,
         world_to_index=np.ascontiguousarray([grid.world_to_index[:3] for _, grid, _, _, _ in chosen], np.float64),
         direct=bool(len(chosen) == media.n_volumes and not see_through_surfaces and accel.masked))
-    return table, densities, skipped
+    return table, densities
 
 
 @inline_stage_kernel

@@ -213,16 +213,23 @@ def grid_coefficients(G, x, y, z):
     return sr, sg, sb, tr, tg, tb, er, eg, eb
 
 
-@stage_kernel
-def program_coefficients(G, x, y, z):
-    """grid_coefficients of a shader-program medium: its program evaluated at the point, inside the
-    medium's box (0 outside, as Cycles evaluates volume shaders only inside the volume's bounds)."""
+@inline_stage_kernel
+def _run_in_box(G, code, init, x, y, z):
+    """(inside, 9 coefficients) of program (code, init) -- the medium's full or reduced one -- at a
+    world point: run only inside the medium's box (zeros outside, as Cycles evaluates volume shaders
+    only inside the volume's bounds)."""
     px, py, pz = _to_index(G, x, y, z)
     if not (0.0 <= px <= G.shape[0] - 1 and 0.0 <= py <= G.shape[1] - 1 and 0.0 <= pz <= G.shape[2] - 1):
-        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    run_program(G.program_code, G.program_init, G.program_tables, G.registers, G.frame, G.attributes,
-                G.world_to_index, x, y, z, G.images)
-    return closure_coefficients(G.registers)
+        return False, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    run_program(code, init, G.program_tables, G.registers, G.frame, G.attributes, G.world_to_index, x, y, z,
+                G.images)
+    return True, closure_coefficients(G.registers)
+
+
+@stage_kernel
+def program_coefficients(G, x, y, z):
+    """grid_coefficients of a shader-program medium: its program evaluated at the point (_run_in_box)."""
+    return _run_in_box(G, G.program_code, G.program_init, x, y, z)[1]
 
 
 #: first dimension of a tracking stream for the correction draws of program_extinction (the
@@ -238,12 +245,10 @@ def program_extinction(G, x, y, z, key, stream, step):
     minus it over that probability: an unbiased sigma_t (exact where the Color is <= 1, where the
     correction is 0) whose colour work runs at those lookups only. step: the lookup's index in its
     tracking call (its roulette number)."""
-    px, py, pz = _to_index(G, x, y, z)
-    if not (0.0 <= px <= G.shape[0] - 1 and 0.0 <= py <= G.shape[1] - 1 and 0.0 <= pz <= G.shape[2] - 1):
+    inside, c = _run_in_box(G, G.extinction_code, G.extinction_init, x, y, z)
+    if not inside:
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    run_program(G.extinction_code, G.extinction_init, G.program_tables, G.registers, G.frame, G.attributes,
-                G.world_to_index, x, y, z, G.images)
-    _, _, _, tr, tg, tb, er, eg, eb = closure_coefficients(G.registers)
+    _, _, _, tr, tg, tb, er, eg, eb = c
     q = G.correction_probability
     if uniform1(key, np.uint64(stream) + np.uint64(CORRECTION_DIMENSION) + np.uint64(step)) < q:
         full = program_coefficients(G, x, y, z)
@@ -256,16 +261,10 @@ def grid_emission(G, x, y, z):
     """(emission rgb, majorant, emissive_media's p_point) at a world point (a shader-program
     medium's emission from its reduced program, which keeps it whole: extinction_slice)."""
     if G.has_program and G.has_extinction_program:
-        px, py, pz = _to_index(G, x, y, z)
-        er = eg = eb = 0.0
-        if 0.0 <= px <= G.shape[0] - 1 and 0.0 <= py <= G.shape[1] - 1 and 0.0 <= pz <= G.shape[2] - 1:
-            run_program(G.extinction_code, G.extinction_init, G.program_tables, G.registers, G.frame, G.attributes,
-                        G.world_to_index, x, y, z, G.images)
-            c = closure_coefficients(G.registers)
-            er, eg, eb = c[6], c[7], c[8]
+        c = _run_in_box(G, G.extinction_code, G.extinction_init, x, y, z)[1]
     else:
         c = grid_coefficients(G, x, y, z)
-        er, eg, eb = c[6], c[7], c[8]
+    er, eg, eb = c[6], c[7], c[8]
     i, j, k = majorant_cell(G, x, y, z)
     density = G.emission_density[i, j, k] if G.emission_sampled else 0.0
     return er, eg, eb, G.majorant[i, j, k], density

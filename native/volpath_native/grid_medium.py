@@ -298,7 +298,6 @@ class GridMedium:
             glow = glow + cell_max(np.abs(self.emission_grid).max(axis=-1))
         majorant = np.maximum(majorant, glow)
         self.majorant_grid = majorant.astype(np.float64)
-        self.emission_bound = glow
         # emissive_media draws points in proportion to each cell's mean emission
         mean = np.full(majorant.shape, float(np.abs(self.emission).max()))
         if self.emission_grid is not None:

@@ -41,9 +41,9 @@ class Cancelled(Exception):
     pass
 
 
-def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable, emitters=None) -> pk.SceneTables:
-    """Flat arrays of everything the compiled stages read about the scene (emitters: the
-    emissive_media table; none sampled when not given)."""
+def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable) -> pk.SceneTables:
+    """Flat arrays of everything the compiled stages read about the scene (no emissive media
+    sampled: Integrator sets its emissive_media table)."""
     st = scene.settings
     mats = scene.materials
     ids = accel.material_ids
@@ -99,7 +99,7 @@ def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable, emitters=N
         transmission_bounces=int(st.transmission_bounces), transparent_bounces=int(st.transparent_bounces),
         rr_min_bounces=int(st.russian_roulette_min_bounces),
         volume_sampling=pk.VOLUME_SAMPLING[st.volume_sampling],
-        glow=glow_table(scene.lights, media), emitters=emitters if emitters is not None else no_emissive_media())
+        glow=glow_table(scene.lights, media), emitters=no_emissive_media())
 
 
 def _may_pass_shadows(material) -> bool:
@@ -131,11 +131,12 @@ class Integrator:
         self.camera = CameraModel(scene.camera, scene.film)
         self.filter = PixelFilter(scene.film)
         self.crop = crop_window(scene.film)
+        self.tables = scene_tables(scene, self.accel, self.media)
         # emissive grid media sampled as lights from surface vertices, and each one's point density
         # per majorant cell for the grid tables (render_paths)
-        self.emitters, self._emission_density, _ = emissive_media(
-            self.media, self.accel, any(_may_pass_shadows(m) for m in scene.materials if m.surface != "null"))
-        self.tables = scene_tables(scene, self.accel, self.media, self.emitters)
+        self.emitters, self._emission_density = emissive_media(self.media, self.accel,
+                                                               bool(self.tables.tri_transparent.any()))
+        self.tables = self.tables._replace(emitters=self.emitters)
         self.surface_nodes = surface_node_table([m.bsdf_nodes() for m in scene.materials])
         self.images = image_table(scene.images)  # one copy of every image, however many nodes read it
         self.surface_programs = surface_program_tables(scene.materials, self.accel, self.images)

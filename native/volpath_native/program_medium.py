@@ -333,9 +333,9 @@ class ProgramMedium(GridMedium):
         peak_any = max(peak, float(glow.max()))
         floor = max(MAJORANT_FLOOR * peak_any, EMISSION_FLOOR * float(glow.max()))
         majorant = np.maximum(np.maximum(dilated, glow) * MAJORANT_MARGIN, floor)
-        self.emission_bound = glow  # sampled, dilated
         # the sampled mean per cell: emissive_media draws points in proportion to it (where the
-        # bound is ~4x the emission at points drawn by it on the procedural fire, this follows it)
+        # dilated bound above was ~4x the emission at points drawn by it on the procedural fire,
+        # this follows it)
         self.emission_weight = mean_emission
         self.majorant_shape = np.array(shape, dtype=np.int64)
         self.cell_size = cells
