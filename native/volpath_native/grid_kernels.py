@@ -86,6 +86,7 @@ GridTables = namedtuple("GridTables", [
     "extinction_code",    # (n,) int32
     "extinction_init",    # (r + 3,) float64
     "correction_probability",  # float: how often a lookup also runs the full program (program_extinction)
+    "camera_boost",       # bool: camera rays' free flight collides more often (CAMERA_COLLISION_BOOST)
     # A moving medium (medium_motion.py): world_to_index and frame[0] are rewritten per path time.
     "motion_steps",       # int, the object's motion steps (1: static)
     "motion",             # (1,S,16) float64 decomposed steps (instance_motion.motion_table)
@@ -113,7 +114,22 @@ assert 2 * TRACKING_BUDGET + 2 < STREAM_DIMENSIONS
 _STOP_CHECK_MASK = 255
 # Tracking modes of _track, as numpy scalars: a Python int constant would be typed as a literal
 # and compile a separate copy of the tracker per mode.
-_FREE_FLIGHT, _TRANSMITTANCE, _RATIO = np.int64(0), np.int64(1), np.int64(2)
+_FREE_FLIGHT, _TRANSMITTANCE, _RATIO, _CAMERA_FREE_FLIGHT = np.int64(0), np.int64(1), np.int64(2), np.int64(3)
+#: Camera rays through a non-emissive shader-program medium choose a real collision at a tentative
+#: one with probability 1 - (1 - P)^CAMERA_COLLISION_BOOST instead of P (as if the medium were that
+#: many times denser), while the null collisions' weight factor (1 - P) / (1 - P') stays at most
+#: BOOST_STEP_WEIGHT and the path's carried weight at most BOOST_WEIGHT_CAP (then plain P). Any P'
+#: in (0, 1) keeps the estimator unbiased (Kutz et al. 2017). Why: the camera segment's direct
+#: light is its next event's; what its free flight decides is whether multiple scattering gets
+#: sampled at all, and in a thin cloud only a few camera paths collide (noise cloud: the median
+#: pixel 3 %), so that ~10 % of the light held ~80 % of the variance. Measured (128 spp x 8
+#: seeds, error per sample): noise cloud 0.0369 -> 0.0278, height fog 0.1529 -> 0.1513, CPU the
+#: same; without the step bound the height fog's dense floor layer (P ~ 0.8) gave passing paths
+#: weights of 5 (error x1.4-20); every segment instead of the camera's: noise cloud 0.0304;
+#: emissive media are left out (the collisions cut the camera ray's glow short: fire +9 %).
+CAMERA_COLLISION_BOOST = 3.0
+BOOST_STEP_WEIGHT = 1.25
+BOOST_WEIGHT_CAP = 2.0
 #: G.flags entries: bound violations (debug checks), calls ended by the step budget, and the
 #: coefficient lookups (tentative collisions) of each tracking mode: FLAG_LOOKUPS + mode.
 FLAG_MAJORANT, FLAG_RESIDUAL, FLAG_BUDGET, FLAG_LOOKUPS = 0, 1, 2, 3
@@ -511,6 +527,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
         middle of the cell's extinction range and the rate its half width: half the lookups of a
         minorant control and a smaller variance exponent (integral of (sigma_t - c)^2 / rate).
     mode 2: plain ratio tracking against the majorant, collecting emission as mode 0 does.
+    mode 3: mode 0 for a camera ray, its real collisions made likelier (CAMERA_COLLISION_BOOST).
     mis_pdf > 0: the ray is a bounce from the surface vertex (mx, my, mz) drawn with that solid-angle
     pdf, whose emission sample (emissive_media) the emission collected here weighs against.
     Returns (t, scattered, weight rgb, emission rgb); residual ratio tracking only fills the weight."""
@@ -532,7 +549,9 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
     # collision (exact by memorylessness, as a fresh draw per cell is; it spares the hash and the
     # log per crossed cell, most of a walk's cost when cells are small and collisions rare).
     depth_left = partner = 0.0
-    qmc = mode == 0  # free flight only (QMC_DRAWS)
+    free = mode == _FREE_FLIGHT or mode == _CAMERA_FREE_FLIGHT
+    boost = mode == _CAMERA_FREE_FLIGHT and G.camera_boost
+    qmc = free  # free flight only (QMC_DRAWS)
     if active:
         u, partner = _draw(key, stream, draws, 0.0, qmc)
         depth_left = -np.log1p(-u)
@@ -558,7 +577,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
             cb += c[cx, cy, cz, 2] * (reached - t)
         if collided:
             steps += 1
-            G.flags[FLAG_LOOKUPS + mode] += 1
+            G.flags[FLAG_LOOKUPS + (_FREE_FLIGHT if free else mode)] += 1
             t = t_candidate
             x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
             if G.has_extinction_program:  # sigma_s, where needed, from the full program below
@@ -566,7 +585,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                 str_, stg, stb, emr, emg, emb = program_extinction(G, x, y, z, key, stream, steps)
             else:
                 ssr, ssg, ssb, str_, stg, stb, emr, emg, emb = grid_coefficients(G, x, y, z)
-            if mode == 0:
+            if free:
                 peak = max(str_, max(stg, stb))
                 if peak > rate * (1.0 + _REL_TOL) + _ABS_TOL:
                     _record(G, FLAG_MAJORANT, peak, rate, x, y, z)
@@ -575,7 +594,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                 er += wr * emr * ew
                 eg += wg * emg * ew
                 eb += wb * emb * ew
-            if mode == 0 and G.has_program:
+            if free and G.has_program:
                 nr, ng, nb = rate - str_, rate - stg, rate - stb
                 # Program media: real vs null from sigma_t alone, channels by throughput (Kutz et al.
                 # 2017: any P in (0, 1), real weight sigma_s / (rate P), null sigma_n / (rate (1 - P));
@@ -595,6 +614,9 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                 prob = (pr * (ar_ / (ar_ + abs(nr)) if ar_ + abs(nr) > 0.0 else 0.0)
                         + pg * (ag_ / (ag_ + abs(ng)) if ag_ + abs(ng) > 0.0 else 0.0)
                         + pb * (ab_ / (ab_ + abs(nb)) if ab_ + abs(nb) > 0.0 else 0.0))
+                if boost and prob < 1.0 and abs(wr) + abs(wg) + abs(wb) <= 3.0 * BOOST_WEIGHT_CAP:
+                    prob = max(prob, min(1.0 - (1.0 - prob) ** CAMERA_COLLISION_BOOST,
+                                         1.0 - (1.0 - prob) / BOOST_STEP_WEIGHT))
                 u, partner = _draw(key, stream, draws, partner, qmc)
                 draws += 1
                 if u < prob:
@@ -606,7 +628,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                 wr, wg, wb = wr * nr * f, wg * ng * f, wb * nb * f
                 if _ended(G, wr, wg, wb):
                     return t_event, scattered, wr, wg, wb, er, eg, eb
-            elif mode == 0:  # voxel grids
+            elif free:  # voxel grids
                 stop = False
                 # conservative bounds: only rounding makes these negative (a program medium's
                 # sampled majorant may be exceeded: the signed weights above keep it unbiased)
@@ -707,14 +729,16 @@ def _record(G, flag, value, bound, x, y, z):
 
 
 @stage_kernel
-def grid_free_flight(G, ox, oy, oz, dx, dy, dz, t_max, key, stream, br, bg, bb, mis_pdf, mx, my, mz):
+def grid_free_flight(G, ox, oy, oz, dx, dy, dz, t_max, key, stream, br, bg, bb, mis_pdf, mx, my, mz, camera):
     """Delta tracking with null collisions on [0, t_max] along a unit ray; (br, bg, bb) is the path
     throughput for the channel pdf. Returns (t, scattered, wr, wg, wb, er, eg, eb): the event
     distance (t_max without a scatter), whether a real scattering collision happened at t, the
     factor for beta (sigma_s / pdf included at a scatter, an unbiased transmittance estimate
     otherwise) and the emission to add as L += beta_in * emission (beta_in: the throughput at the
-    segment start). mis_pdf, (mx, my, mz): see _track."""
-    return _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, _FREE_FLIGHT, br, bg, bb, mis_pdf, mx, my, mz)
+    segment start). mis_pdf, (mx, my, mz): see _track. camera: the ray leaves the camera (no
+    scattering yet on its path): CAMERA_COLLISION_BOOST where the medium allows it."""
+    return _track(G, ox, oy, oz, dx, dy, dz, 0.0, t_max, key, stream, _CAMERA_FREE_FLIGHT if camera else _FREE_FLIGHT,
+                  br, bg, bb, mis_pdf, mx, my, mz)
 
 
 @stage_kernel

@@ -445,7 +445,7 @@ class GridMedium:
 
     _NO_GRID = np.zeros((1, 1, 1, 3), dtype=np.float32)
     _NO_DENSITY = np.zeros((1, 1, 1))
-    _NO_PROGRAM = dict(has_program=False, program_code=np.zeros(1, np.int32), program_init=np.zeros(1),
+    _NO_PROGRAM = dict(has_program=False, camera_boost=False, program_code=np.zeros(1, np.int32), program_init=np.zeros(1),
                        program_tables=np.zeros(1), registers=np.zeros(1), frame=np.zeros((2, 3, 4)),
                        attributes=np.zeros((1, 1, 1, 1), np.float32), images=empty_image_table(),
                        has_extinction_program=False, extinction_code=np.zeros(1, np.int32),
@@ -540,7 +540,7 @@ class GridMedium:
         return FreeFlight(t_out, scattered, weight, emission)
 
     def sample_free_flight(self, origins, dirs, t_max, rng: np.random.Generator, throughput=None,
-                           t_min=0.0) -> FreeFlight:
+                           t_min=0.0, camera: bool = False) -> FreeFlight:
         """Delta tracking with null collisions along N rays on [t_min, t_max]
         (grid_kernels.grid_free_flight per ray).
 
@@ -549,8 +549,9 @@ class GridMedium:
             scatter-vs-null decision (Cycles: volume_sample_channel_pdf of albedo x throughput).
         rng: numpy Generator (one key per ray is drawn from it); results are reproducible for a
             given generator state and batch.
+        camera: the rays leave the camera (grid_kernels.CAMERA_COLLISION_BOOST).
         """
-        return self._run_tracking(origins, dirs, t_min, t_max, rng, 0, throughput)
+        return self._run_tracking(origins, dirs, t_min, t_max, rng, 3 if camera else 0, throughput)
 
     def transmittance(self, origins, dirs, t_max, rng: np.random.Generator, t_min=0.0,
                       residual: bool = True) -> np.ndarray:

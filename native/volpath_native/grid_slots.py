@@ -57,12 +57,12 @@ def slot_attenuation(GR, gi, time, o, d, t_max, key, stream, mis):
 
 
 @inline_stage_kernel
-def slot_free_flight(GR, gi, time, o, d, t_max, key, stream, thr, mis):
+def slot_free_flight(GR, gi, time, o, d, t_max, key, stream, thr, mis, camera):
     """grid_free_flight of the grid in slot gi (thr: the path throughput, rgb; mis: as
-    slot_attenuation's): (t, scattered, wr, wg, wb, er, eg, eb)."""
+    slot_attenuation's; camera: a camera ray): (t, scattered, wr, wg, wb, er, eg, eb)."""
     return _on_slot(GR, gi, time, grid_free_flight,
                     (o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, stream, thr[0], thr[1], thr[2], mis[0], mis[1],
-                     mis[2], mis[3]))
+                     mis[2], mis[3], camera))
 
 
 @inline_stage_kernel

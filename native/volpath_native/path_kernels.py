@@ -507,7 +507,7 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
                                          Q, n_shadow, margin)
                 beta, scatter, t_scatter, event_g, grid_event = _grid_segment(
                     S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat, F[p, TIME],
-                    _bounce_mis(S, F, I, p))
+                    _bounce_mis(S, F, I, p), I[p, BOUNCE] == 0)
             elif not tat and _max3(ss) > 0.0:
                 if n_lights > 0:
                     n_shadow = _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
@@ -1114,9 +1114,9 @@ def _surface(S, T, GR, SN, BT, CB, SP, SPS, F, I, K, C, p, iteration, prim, inst
 # earlier of two independent collision processes is the first event of their sum).
 # ---------------------------------------------------------------------------------------------
 @inline_stage_kernel
-def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat, time, mis):
+def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat, time, mis, camera):
     """Free flight of path p inside grid volumes (placed at its shutter time); returns (beta,
-    scattered, t, event g, grid event). mis: _bounce_mis."""
+    scattered, t, event g, grid event). mis: _bounce_mis; camera: no scattering on the path yet."""
     key = K[p]
     stream0 = grid_stream(iteration, P_FREE_FLIGHT, 0, 0)
     if tat:  # attenuation and emission only (Cycles adds volume emission on these paths too)
@@ -1146,7 +1146,7 @@ def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st
             continue
         t, scattered, w0, w1, w2, e0, e1, e2 = slot_free_flight(
             GR, gi, time, o, d, t_end, key, stream0 + np.uint64(gi) * np.uint64(STREAM_DIMENSIONS), _mul3(beta, w),
-            mis)
+            mis, camera)
         _add_radiance(L, pid, _mul3(_mul3(beta_in, w), (e0, e1, e2)))
         w = _mul3(w, (w0, w1, w2))
         if scattered:

@@ -244,7 +244,10 @@ class ProgramMedium(GridMedium):
         self.invalid_evaluations = 0
         self.violation_count = 0  # tentative collisions above the sampled majorant (check_flags)
         self.residual_violation_count = 0  # shadow-ray lookups with |sigma_t - control| above the rate
-        if auto_resolution and self._emits():
+        # whether the program glows: the majorant grid's resolution, and no camera collision boost
+        # (grid_kernels.CAMERA_COLLISION_BOOST: collisions would cut the camera ray's glow short)
+        self.emits = self._emits()
+        if auto_resolution and self.emits:
             resolution = EMISSIVE_MAJORANT_RESOLUTION
             if self.grid_index_to_world is None:
                 self._box_index_space(resolution)
@@ -294,7 +297,7 @@ class ProgramMedium(GridMedium):
                     images=self.images, has_extinction_program=reduced is not None,
                     extinction_code=reduced.code if reduced is not None else np.zeros(1, np.int32),
                     extinction_init=reduced.init if reduced is not None else np.zeros(1),
-                    correction_probability=self.correction_probability)
+                    correction_probability=self.correction_probability, camera_boost=not self.emits)
 
     def _build_majorant_grid(self, resolution: int):
         """Sampled per-cell maxima, dilated by one cell, with a margin and a floor (module docstring);

@@ -30,7 +30,8 @@ def _transmittances(G, origins, dirs, t_max, keys, stream, out):
 def _free_flights(G, origins, dirs, t_max, keys, stream, t_out, scattered, weight):
     for n in range(len(origins)):
         o, d = origins[n], dirs[n]
-        r = grid_free_flight(G, o[0], o[1], o[2], d[0], d[1], d[2], t_max[n], keys[n], stream, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0)
+        r = grid_free_flight(G, o[0], o[1], o[2], d[0], d[1], d[2], t_max[n], keys[n], stream, 1.0, 1.0, 1.0,
+                             0.0, 0.0, 0.0, 0.0, False)
         t_out[n], scattered[n] = r[0], r[1]
         weight[n, 0], weight[n, 1], weight[n, 2] = r[2], r[3], r[4]
 
@@ -151,15 +152,18 @@ def test_a_ray_beyond_the_step_budget_is_opaque_and_counted():
         flight = medium.sample_free_flight([[1.0, 1.0, 0.5]], [[0.0, 0.0, 1.0]], 2.0, np.random.default_rng(0))
     np.testing.assert_array_equal(flight.weight, 0.0)
     G = medium.tables
-    r = grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 2.0, np.uint64(5), 0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0)
+    r = grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 2.0, np.uint64(5), 0, 1.0, 1.0, 1.0,
+                         0.0, 0.0, 0.0, 0.0, False)
     assert r[2:5] == (0.0, 0.0, 0.0) and G.flags[FLAG_BUDGET] == 1
     # A short segment fits in the budget (~330 null collisions): weight 1 (nothing there), not counted.
-    r = grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 0.01, np.uint64(5), 0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0)
+    r = grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 0.01, np.uint64(5), 0, 1.0, 1.0, 1.0,
+                         0.0, 0.0, 0.0, 0.0, False)
     assert r[2:5] == (1.0, 1.0, 1.0) and G.flags[FLAG_BUDGET] == 1
     # NaN or infinite majorants end at once too
     for bad in (np.inf, np.nan):
         medium.majorant_grid[:] = bad
-        r = grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 0.01, np.uint64(5), 0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0)
+        r = grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 0.01, np.uint64(5), 0, 1.0, 1.0, 1.0,
+                             0.0, 0.0, 0.0, 0.0, False)
         assert r[2:5] == (0.0, 0.0, 0.0)
     assert G.flags[FLAG_BUDGET] == 3
 
@@ -168,9 +172,11 @@ def test_the_stop_flag_abandons_tracking():
     medium = GridMedium("empty", np.zeros((4, 4, 4), np.float32), np.eye(4), 1.0, 0.0, majorant_resolution=1)
     medium.majorant_grid[:] = 1000.0
     G = medium.tables
-    assert grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 2.0, np.uint64(5), 0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0)[2] == 1.0
+    assert grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 2.0, np.uint64(5), 0, 1.0, 1.0, 1.0,
+                            0.0, 0.0, 0.0, 0.0, False)[2] == 1.0
     G.stop[0] = 1
-    assert grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 2.0, np.uint64(5), 0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0)[2] == 0.0
+    assert grid_free_flight(G, 1.0, 1.0, 0.5, 0.0, 0.0, 1.0, 2.0, np.uint64(5), 0, 1.0, 1.0, 1.0,
+                            0.0, 0.0, 0.0, 0.0, False)[2] == 0.0
     assert G.flags[FLAG_BUDGET] == 0  # abandoned, not counted as opaque
 
 

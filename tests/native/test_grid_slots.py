@@ -16,7 +16,7 @@ from volpath_native.grid_slots import (GRID_SLOTS, slot_attenuation, slot_free_f
 def _through_slots(GR, gi, o, d, t_max, key, out):
     t = slot_transmittance(GR, gi, 0.0, o, d, t_max, key, np.uint64(7))
     a = slot_attenuation(GR, gi, 0.0, o, d, t_max, key, np.uint64(7), (0.0, 0.0, 0.0, 0.0))
-    f = slot_free_flight(GR, gi, 0.0, o, d, t_max, key, np.uint64(7), (1.0, 0.5, 0.25), (0.0, 0.0, 0.0, 0.0))
+    f = slot_free_flight(GR, gi, 0.0, o, d, t_max, key, np.uint64(7), (1.0, 0.5, 0.25), (0.0, 0.0, 0.0, 0.0), False)
     x = (o[0] + 0.3 * t_max * d[0], o[1] + 0.3 * t_max * d[1], o[2] + 0.3 * t_max * d[2])
     s, g = slot_scattering(GR, gi, 0.0, x)
     n_t, n_pdf = slot_nee_distance_sample_pdf(GR, gi, 0.0, o, d, t_max, 0.1, 0.7, 0.4)
@@ -30,7 +30,8 @@ def _through_slots(GR, gi, o, d, t_max, key, out):
 def _direct(G, o, d, t_max, key, out):
     t = grid_transmittance(G, o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, np.uint64(7))
     a = grid_attenuation(G, o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, np.uint64(7), 0.0, 0.0, 0.0, 0.0)
-    f = grid_free_flight(G, o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, np.uint64(7), 1.0, 0.5, 0.25, 0.0, 0.0, 0.0, 0.0)
+    f = grid_free_flight(G, o[0], o[1], o[2], d[0], d[1], d[2], t_max, key, np.uint64(7), 1.0, 0.5, 0.25,
+                         0.0, 0.0, 0.0, 0.0, False)
     x = (o[0] + 0.3 * t_max * d[0], o[1] + 0.3 * t_max * d[1], o[2] + 0.3 * t_max * d[2])
     s = grid_scattering(G, x[0], x[1], x[2])
     n_t, n_pdf = grid_nee_distance_sample_pdf(G, o[0], o[1], o[2], d[0], d[1], d[2], t_max, 0.1, 0.7, 0.4)

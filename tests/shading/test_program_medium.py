@@ -193,6 +193,38 @@ def test_free_flight_is_unbiased(medium):
             assert abs(z) < Z_LIMIT, (z, expected)
 
 
+def test_the_camera_free_flight_collides_more_often_and_stays_unbiased():
+    """Camera rays (grid_kernels.CAMERA_COLLISION_BOOST) collide more often in a thin medium that
+    does not glow, with the same expectations as the plain free flight: E[weight, scattered] =
+    albedo (1 - T), E[weight, not scattered] = T; planted: the boosted choice with the plain
+    weights (albedo at a collision, 1 when passing) fails. A glowing medium's camera rays are left
+    as they were."""
+    box = ([-1, -1, -1], [1, 1, 1])
+    thin = ProgramMedium("thin", wavy_program(scale=0.1), object_matrix(), box)
+    origins, dirs = _rays()
+    depth = quadrature_depth(thin, origins, dirs, 8.0)
+    n = 20000
+    for o, d, tau in zip(origins, dirs, depth):
+        rays = np.repeat(o[None], n, 0), np.repeat(d[None], n, 0)
+        plain = thin.sample_free_flight(*rays, 8.0, np.random.default_rng(5))
+        camera = thin.sample_free_flight(*rays, 8.0, np.random.default_rng(5), camera=True)
+        rate_plain, rate_camera = plain.scattered.mean(), camera.scattered.mean()
+        assert rate_camera > rate_plain + 4.0 * np.sqrt(rate_plain * (1 - rate_plain) / n), (rate_plain, rate_camera)
+        w = camera.weight[:, 0]
+        expectations = (ALBEDO * (1 - np.exp(-tau)), np.exp(-tau))
+        for estimate, expected in zip((w * camera.scattered, w * ~camera.scattered), expectations):
+            z = (estimate.mean() - expected) / (estimate.std() / np.sqrt(n))
+            assert abs(z) < Z_LIMIT, (z, expected)
+        planted = (ALBEDO * camera.scattered, 1.0 * ~camera.scattered)
+        z = [(e.mean() - x) / (e.std() / np.sqrt(n)) for e, x in zip(planted, expectations)]
+        assert min(abs(np.array(z))) > Z_LIMIT, z
+    glowing = ProgramMedium("glow", wavy_program(scale=0.1, emission=2.0), object_matrix(), box)
+    rays = np.repeat(origins[:1], 2000, 0), np.repeat(dirs[:1], 2000, 0)
+    plain = glowing.sample_free_flight(*rays, 8.0, np.random.default_rng(5))
+    camera = glowing.sample_free_flight(*rays, 8.0, np.random.default_rng(5), camera=True)
+    assert np.array_equal(plain.weight, camera.weight) and np.array_equal(plain.scattered, camera.scattered)
+
+
 def test_a_too_low_majorant_stays_unbiased_and_is_counted():
     """Halve the sampled majorant and the residual rate: sigma_t exceeds the one and leaves control
     +- rate in much of the box; the signed weights of weighted delta / (residual) ratio tracking keep
