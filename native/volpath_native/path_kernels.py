@@ -502,12 +502,14 @@ def shade(S, T, GR, SN, BT, CB, SP, SPS, n, iteration, F, I, K, C, hit_t, hit_pr
             if _max3(em) > 0.0:
                 _add_radiance(L, pid, _mul3(beta, emission_integral1(em, st, t_seg)))
             if in_grid:
+                in_scatter = 0.0
                 if not tat and n_lights > 0:
-                    n_shadow = _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
-                                         Q, n_shadow, margin)
+                    n_shadow, in_scatter = _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st,
+                                                     g, t_seg, Q, n_shadow, margin)
+                boost = I[p, BOUNCE] == 0 and _world_dimmer(T, in_scatter)
                 beta, scatter, t_scatter, event_g, grid_event = _grid_segment(
                     S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st, g, t_seg, tat, F[p, TIME],
-                    _bounce_mis(S, F, I, p), I[p, BOUNCE] == 0)
+                    _bounce_mis(S, F, I, p), boost)
             elif not tat and _max3(ss) > 0.0:
                 if n_lights > 0:
                     n_shadow = _medium_nee(S, T, SP, SPS, F, I, K, C, p, iteration, o, d, beta, ss, st, g, t_seg,
@@ -1168,6 +1170,27 @@ def _grid_segment(S, GR, K, C, L, p, pid, iteration, o, d, beta, beta_in, ss, st
     return _mul3(_mul3(beta, w), factor), event, (t_eval if event else np.inf), event_g, grid_event
 
 
+#: how much brighter than the world a camera segment's in-scattered light must be for its free
+#: flight to collide more often (_world_dimmer)
+WORLD_MARGIN = 4.0
+
+
+@inline_stage_kernel
+def _world_dimmer(T, in_scatter):
+    """Whether the world is dimmer than the radiance the camera segment's next-event vertex scatters
+    toward the camera per unit albedo (in_scatter, unshadowed, from _grid_nee): then the segment's
+    free flight may collide more often (grid_kernels.CAMERA_COLLISION_BOOST), else (a bright sky,
+    no next event) it keeps the plain collision rate. In a thin medium the boost pays where a
+    collision's value (about albedo x in_scatter) exceeds what passing paths carry; what the camera
+    ray meets behind the medium is not known yet (the segment ends at the medium's boundary): the
+    world stands for it. Noise cloud: world strength 10 gave +60 % variance with the boost on
+    every camera segment."""
+    world = 0.0
+    if T.world_row >= 0 and T.camera_visible[T.world_row]:
+        world = (T.world_radiance[0] + T.world_radiance[1] + T.world_radiance[2]) / 3.0
+    return in_scatter > WORLD_MARGIN * world
+
+
 @inline_stage_kernel
 def _grid_phase_mixture(S, GR, C, p, x, ss_hom, g_hom, cos_theta, time):
     """Sum of sigma_s HG over every medium scattering at x (homogeneous components and grids) and
@@ -1247,11 +1270,13 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
     equiangular sampling (positional lights) or, on the bounded segment, from the first grid's
     control extinction (grid_kernels.grid_nee_distance_sample_pdf: follows the medium cell by cell, as
     Cycles' distance-sampled direct scatter does), one-sample MIS of the two; sigma_s and
-    transmittance come from the grids (residual ratio tracking)."""
+    transmittance come from the grids (residual ratio tracking). Returns (queue length, the radiance
+    a unit albedo would scatter toward -d at the vertex from this light sample, unshadowed; 0
+    without a shadow ray)."""
     mode = S.volume_sampling
     row, sel = _select_in_segment(T, K, p, iteration, o, d, t_end)
     if row < 0:
-        return n_shadow
+        return n_shadow, 0.0
     finite = np.isfinite(t_end) and t_end > 0.0
     can_equi = light_has_position(T, row) and (mode != 1 or not finite)
     if mode == 2:
@@ -1260,7 +1285,7 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
         prob_eq = (0.5 if finite else 1.0) if can_equi else 0.0
     t_lit0, t_lit1 = light_segment(T, row, o, d, t_end)  # where the light can reach
     if not (can_equi or finite) or not t_lit0 <= t_lit1:
-        return n_shadow
+        return n_shadow, 0.0
     u_light = _u2(K, p, iteration, D_MED_LU)  # the light sample's pair, also the equiangular centre's
     setup = _equiangular_setup_if(prob_eq, T, u_light, row, o, d, t_lit0, t_lit1, F[p, TIME])
     u_t = _u(K, p, iteration, D_MED_T)
@@ -1278,21 +1303,23 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
                                                        _u(K, p, iteration, D_MED_TECH), u_t / (1.0 - prob_eq))
         pdf_t = (1.0 - prob_eq) * pdf_distance + _weighted_equiangular_pdf(prob_eq, setup, t)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
-        return n_shadow
+        return n_shadow, 0.0
     x, wi, dist, value, light_pdf, cos_theta = _medium_light_sample(S, T, SP, SPS, u_light, row, sel, o, d, t,
                                                                     F[p, TIME])
     survival = _empty_cell_survival(S, GR, C, p, x, ss, F[p, TIME])
     if survival < 1.0 and _u(K, p, iteration, D_MED_ROULETTE) >= survival:
-        return n_shadow
+        return n_shadow, 0.0
     f, phase_pdf = _grid_phase_mixture(S, GR, C, p, x, ss, g, cos_theta, F[p, TIME])
     w = power_heuristic(light_pdf, phase_pdf) if light_pdf > 0.0 else 1.0
     contrib = _scale3(_mul3(_mul3(_mul3(beta, transmittance3(st, t)), f), value), w / (pdf_t * survival))
+    in_scatter = 0.0
     if _max3(contrib) > 0.0:
         contrib = _mul3(contrib, grids_transmittance(S, GR, C, p, o, d, t, K[p],
                                                      grid_stream(iteration, P_NEE_SEGMENT, 0, 0), F[p, TIME]))
         n_shadow = _push_shadow(Q, C, K, p, n_shadow, x, wi, dist, contrib, st, margin,
                                 I[p, PID], P_SHADOW_MEDIUM, F[p, TIME])
-    return n_shadow
+        in_scatter = phase_pdf * w * (value[0] + value[1] + value[2]) / 3.0
+    return n_shadow, in_scatter
 
 
 # ---------------------------------------------------------------------------------------------
