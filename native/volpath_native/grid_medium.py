@@ -445,9 +445,10 @@ class GridMedium:
 
     _NO_GRID = np.zeros((1, 1, 1, 3), dtype=np.float32)
     _NO_DENSITY = np.zeros((1, 1, 1))
-    _NO_PROGRAM = dict(has_program=False, camera_boost=False, program_code=np.zeros(1, np.int32), program_init=np.zeros(1),
-                       program_tables=np.zeros(1), registers=np.zeros(1), frame=np.zeros((2, 3, 4)),
-                       attributes=np.zeros((1, 1, 1, 1), np.float32), images=empty_image_table(),
+    _NO_PROGRAM = dict(has_program=False, camera_boost=False, program_code=np.zeros(1, np.int32),
+                       program_init=np.zeros(1), program_tables=np.zeros(1), registers=np.zeros(1),
+                       frame=np.zeros((2, 3, 4)), attributes=np.zeros((1, 1, 1, 1), np.float32),
+                       images=empty_image_table(),
                        has_extinction_program=False, extinction_code=np.zeros(1, np.int32),
                        extinction_init=np.zeros(1), correction_probability=1.0)
 

@@ -1183,8 +1183,8 @@ def _world_dimmer(T, in_scatter):
     no next event) it keeps the plain collision rate. In a thin medium the boost pays where a
     collision's value (about albedo x in_scatter) exceeds what passing paths carry; what the camera
     ray meets behind the medium is not known yet (the segment ends at the medium's boundary): the
-    world stands for it. Noise cloud: world strength 10 gave +60 % variance with the boost on
-    every camera segment."""
+    world stands for it. Noise cloud: world strength 10 gave +63 % variance with the boost on
+    every camera segment, none with this test; the table's dim world -15 % (-19 % ungated)."""
     world = 0.0
     if T.world_row >= 0 and T.camera_visible[T.world_row]:
         world = (T.world_radiance[0] + T.world_radiance[1] + T.world_radiance[2]) / 3.0
