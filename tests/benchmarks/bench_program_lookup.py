@@ -6,6 +6,8 @@ lookups; this splits a lookup into the Noise Texture itself (4 octaves, the rows
 and everything around it (the interpreter's dispatch and register file, the other nodes, the
 Principled Volume closure), for the full program and for the tracker's reduced one
 (shading/extinction_slice.py), as ratios to the noise in the same run (the machine is noisy).
+Lookups run through GridMedium.coefficients (grid_coefficients: the whole closure), a little more
+than the trackers' program_extinction does with the reduced program.
 
     python tests/benchmarks/bench_program_lookup.py [--rows noise_cloud,procedural_fire] [--points 400000]
 """
@@ -41,14 +43,19 @@ def _noise_seconds(points: np.ndarray) -> float:
     from volpath_native.shading.textures.noise import noise_texture
 
     @numba.njit(nogil=True)
-    def run(pts, out):
+    def run(pts, settings, out):
+        # the node's settings read at run time, as the interpreter reads them from its registers
+        # (constants here would let the compiler fold the octave loop)
+        dimensions, noise_type, scale, detail, roughness, lacunarity = (
+            int(settings[0]), int(settings[1]), settings[2], settings[3], settings[4], settings[5])
         for n in range(pts.shape[0]):
-            out[n] = noise_texture(3, 1, True, False, pts[n, 0], pts[n, 1], pts[n, 2], 0.0, 2.5, 3.0, 0.5, 2.0,
-                                   0.0, 1.0, 0.0)[0]
+            out[n] = noise_texture(dimensions, noise_type, True, False, pts[n, 0], pts[n, 1], pts[n, 2], 0.0, scale,
+                                   detail, roughness, lacunarity, 0.0, 1.0, 0.0)[0]
 
+    settings = np.array([3.0, 1.0, 2.5, 3.0, 0.5, 2.0])
     out = np.zeros(len(points))
-    run(points[:8], out[:8])  # compile
-    return _best_seconds(lambda: run(points, out))
+    run(points[:8], settings, out[:8])  # compile
+    return _best_seconds(lambda: run(points, settings, out))
 
 
 def main(argv=None) -> int:
