@@ -40,24 +40,45 @@ BOX_TOLERANCE = 1e-4
 EMISSION_SHARE = 1.0
 
 # count: sampled media (0: none); slot (K,): their grid slot; cell_start (K + 1,): each one's first
-# cell in the concatenated arrays; cell_cdf (N,): cumulative pick probability of the cells (C order
-# per medium); cell_density (N,): p_point in that cell (per world m^3); cell_shape (K, 3);
+# cell in the concatenated arrays; cell_keep (N,), cell_alias (N,): the cells' pick probabilities
+# as a Walker alias table (alias_table; C order per medium); cell_density (N,): p_point in that
+# cell (per world m^3); cell_shape (K, 3);
 # index_to_cell (K, 3): index space -> cell space scale; index_to_world (K, 3, 4); clip (K, 2, 3):
 # the boundary mesh's box in index space (lowest, highest corner), where points are drawn; share:
 # EMISSION_SHARE (cell_density and the grid tables' densities include it); world_to_index (K, 3, 4);
 # direct: the scene's only volumes are these media and no surface lets shadows through, so a
 # sample's transmittance is their tracking across their boxes and its shadow ray asks about
 # opaque geometry only (path_kernels._sampled_media_transmittance, drop_blocked)
-EmissiveMedia = namedtuple("EmissiveMedia", ["count", "slot", "cell_start", "cell_cdf", "cell_density", "cell_shape",
+EmissiveMedia = namedtuple("EmissiveMedia", ["count", "slot", "cell_start", "cell_keep", "cell_alias", "cell_density",
+                                             "cell_shape",
                                              "index_to_cell", "index_to_world", "clip", "share", "world_to_index",
                                              "direct"])
 
 
 def no_emissive_media() -> EmissiveMedia:
     """A table without sampled media: surface vertices take no emission sample."""
-    return EmissiveMedia(0, np.zeros(1, np.int64), np.zeros(2, np.int64), np.ones(1), np.zeros(1),
+    return EmissiveMedia(0, np.zeros(1, np.int64), np.zeros(2, np.int64), np.ones(1), np.zeros(1, np.int64), np.zeros(1),
                          np.ones((1, 3), np.int64), np.ones((1, 3)), np.zeros((1, 3, 4)), np.zeros((1, 2, 3)), 0.0,
                          np.zeros((1, 3, 4)), False)
+
+
+def alias_table(weights):
+    """(keep, alias) of a Walker alias table for the non-negative weights (Vose 1991): cell
+    n = floor(u N) is kept when the rest of u N is below keep[n], else alias[n] is taken -- each cell
+    with probability weight / sum, in O(1) where a binary search over 24^3 cells took ~14
+    unpredictable branches (README session 24)."""
+    n = len(weights)
+    scaled = np.asarray(weights, np.float64) * (n / float(np.sum(weights)))
+    keep, alias = np.ones(n), np.arange(n, dtype=np.int64)
+    small = [i for i in range(n) if scaled[i] < 1.0]
+    large = [i for i in range(n) if scaled[i] >= 1.0]
+    while small and large:
+        s, l = small.pop(), large.pop()
+        keep[s], alias[s] = scaled[s], l
+        scaled[l] -= 1.0 - scaled[s]
+        (small if scaled[l] < 1.0 else large).append(l)
+    # what is left has scaled weight 1 up to rounding: kept (keep 1)
+    return keep, alias
 
 
 def mesh_box(grid, corners):
@@ -110,15 +131,14 @@ def emissive_media(media, accel, see_through_surfaces=True):
     if not chosen:
         return no_emissive_media(), {}
     total = sum(float(weights.sum()) for _, _, weights, _, _ in chosen)
-    cdf = np.cumsum(np.concatenate([weights.ravel() for _, _, weights, _, _ in chosen])) / total
-    cdf[-1] = 1.0
+    keep, alias = alias_table(np.concatenate([weights.ravel() for _, _, weights, _, _ in chosen]))
     share = float(EMISSION_SHARE)
     densities = {slot: share * mean / total for slot, _, _, mean, _ in chosen}  # per m^3 where points fall
     table = EmissiveMedia(
         count=len(chosen),
         slot=np.array([slot for slot, *_ in chosen], np.int64),
         cell_start=np.cumsum([0] + [w.size for _, _, w, _, _ in chosen]).astype(np.int64),
-        cell_cdf=np.ascontiguousarray(cdf),
+        cell_keep=keep, cell_alias=alias,
         cell_density=np.ascontiguousarray(np.concatenate([densities[slot].ravel() for slot, *_ in chosen])),
         cell_shape=np.array([w.shape for _, _, w, _, _ in chosen], np.int64),
         index_to_cell=np.array([1.0 / grid.cell_size for _, grid, _, _, _ in chosen], np.float64),
@@ -142,8 +162,10 @@ def sample_emissive_point(E, u_cell, u1, u2, u3):
     pdf 0 when this vertex takes none (u_cell >= share)."""
     if not u_cell < E.share:
         return -1, (0.0, 0.0, 0.0), 0.0
-    u_cell = u_cell / E.share
-    n = min(np.searchsorted(E.cell_cdf, u_cell, side="right"), E.cell_cdf.shape[0] - 1)
+    scaled = u_cell / E.share * E.cell_keep.shape[0]
+    n = min(int(scaled), E.cell_keep.shape[0] - 1)
+    if not scaled - n < E.cell_keep[n]:
+        n = E.cell_alias[n]
     k = 0
     while k + 1 < E.count and n >= E.cell_start[k + 1]:
         k += 1

@@ -62,8 +62,9 @@ GridTables = namedtuple("GridTables", [
     "sigma_a",            # (3,) float64
     "emission",           # (3,) float64 constant emission inside the padded box, W/(m^3 sr)
     "majorant",           # (R0,R1,R2) float64 scalar majorant per cell (free flight, plain ratio tracking)
-    "control",            # (R0,R1,R2,3) float64 per-channel control extinction per cell (residual ratio tracking)
-    "residual_rate",      # (R0,R1,R2) float64 bound of |sigma_t - control| per cell (residual ratio tracking)
+    "residual_cells",     # (R0,R1,R2,4) float64 per cell: the bound of |sigma_t - control| (the residual
+                          # rate), then the per-channel control extinction (residual ratio tracking);
+                          # one cache line per cell step (GridMedium.residual_rate / control_rgb view it)
     "extrema",            # (R0,R1,R2,2) float64 smallest and largest sigma_t (any channel) per cell
     "cell_shape",         # (3,) int64 majorant cells per axis
     "index_to_cell",      # (3,) float64 scale from index space to majorant-cell space
@@ -433,13 +434,13 @@ def grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, target, t_q
     depth, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
         0.0, t, sigma_extra, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
     rx, ry, rz = G.cell_shape[0], G.cell_shape[1], G.cell_shape[2]
-    c = G.control
+    c = G.residual_cells
     while active:
         if found and t_query < t:
             return depth, found, t_found, sigma_found, depth_q, sigma_q
         axis, crossing = _next_crossing(nx, ny, nz)
         cell_end = min(crossing, t_exit)
-        sigma = sigma_extra + (c[cx, cy, cz, 0] + c[cx, cy, cz, 1] + c[cx, cy, cz, 2]) * (1.0 / 3.0)
+        sigma = sigma_extra + (c[cx, cy, cz, 1] + c[cx, cy, cz, 2] + c[cx, cy, cz, 3]) * (1.0 / 3.0)
         depth, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
             t, cell_end, sigma, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
         t = cell_end
@@ -559,7 +560,7 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
         depth_left = -np.log1p(-u)
     draws += 1
     while active:
-        rate = G.residual_rate[cx, cy, cz] if mode == 1 else G.majorant[cx, cy, cz]
+        rate = G.residual_cells[cx, cy, cz, 0] if mode == 1 else G.majorant[cx, cy, cz]
         axis, crossing = _next_crossing(nx, ny, nz)
         cell_end = min(crossing, t_exit)
         cell_depth = rate * (cell_end - t)
@@ -573,10 +574,10 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
         t_candidate = min(t + depth_left / rate, cell_end) if collided else cell_end
         if mode == 1:
             reached = t_candidate if collided else cell_end
-            c = G.control
-            cr += c[cx, cy, cz, 0] * (reached - t)
-            cg += c[cx, cy, cz, 1] * (reached - t)
-            cb += c[cx, cy, cz, 2] * (reached - t)
+            c = G.residual_cells
+            cr += c[cx, cy, cz, 1] * (reached - t)
+            cg += c[cx, cy, cz, 2] * (reached - t)
+            cb += c[cx, cy, cz, 3] * (reached - t)
         if collided:
             steps += 1
             G.flags[FLAG_LOOKUPS + (_FREE_FLIGHT if free else mode)] += 1
@@ -662,8 +663,8 @@ def _track(G, ox, oy, oz, dx, dy, dz, t_min, t_max, key, stream, mode, br, bg, b
                     return t_event, scattered, wr, wg, wb, er, eg, eb
             else:
                 if mode == 1:
-                    c = G.control
-                    mr, mg, mb = c[cx, cy, cz, 0], c[cx, cy, cz, 1], c[cx, cy, cz, 2]
+                    c = G.residual_cells
+                    mr, mg, mb = c[cx, cy, cz, 1], c[cx, cy, cz, 2], c[cx, cy, cz, 3]
                     qr, qg, qb = str_ - mr, stg - mg, stb - mb
                     peak = max(abs(qr), max(abs(qg), abs(qb)))
                     if peak > rate * (1.0 + _REL_TOL) + _ABS_TOL:

@@ -352,9 +352,8 @@ class ProgramMedium(GridMedium):
         # ratio factors of residual tracking leave [0, 2] (signed), which keeps it unbiased.
         if RESIDUAL_DILATION:
             low_rgb, high_rgb = _neighbourhood(low_rgb, np.minimum), _neighbourhood(high_rgb, np.maximum)
-        self.control_rgb = 0.5 * (low_rgb + high_rgb)
         half_width = 0.5 * (high_rgb - low_rgb).max(axis=-1)
-        self.residual_rate = np.maximum(half_width * RESIDUAL_MARGIN, MAJORANT_FLOOR * peak)
+        self._set_residual(0.5 * (low_rgb + high_rgb), np.maximum(half_width * RESIDUAL_MARGIN, MAJORANT_FLOOR * peak))
 
     def _extinction_agrees(self) -> bool:
         """Whether the reduced program's extinction equals the full one's at the PROBE_POINTS

@@ -57,8 +57,8 @@ _FLAG_SHADOW_LOOKUPS = FLAG_LOOKUPS + 1
 def _control_at(G, x, y, z):
     """The control extinction (rgb) of the majorant cell holding a world point."""
     i, j, k = majorant_cell(G, x, y, z)
-    c = G.control
-    return c[i, j, k, 0], c[i, j, k, 1], c[i, j, k, 2]
+    c = G.residual_cells
+    return c[i, j, k, 1], c[i, j, k, 2], c[i, j, k, 3]
 
 
 @stage_kernel
@@ -155,11 +155,11 @@ def _transmittance(G, ox, oy, oz, dx, dy, dz, t_max, key, stream, debias):
     while active:
         axis, crossing = _next_crossing(nx, ny, nz)
         cell_end = min(crossing, t_exit)
-        c = G.control
+        c = G.residual_cells
         span = cell_end - t
-        d0 += c[cx, cy, cz, 0] * span
-        d1 += c[cx, cy, cz, 1] * span
-        d2 += c[cx, cy, cz, 2] * span
+        d0 += c[cx, cy, cz, 1] * span
+        d1 += c[cx, cy, cz, 2] * span
+        d2 += c[cx, cy, cz, 3] * span
         lo = min(lo, G.extrema[cx, cy, cz, 0])
         hi = max(hi, G.extrema[cx, cy, cz, 1])
         t = cell_end

@@ -5,7 +5,7 @@ floor under a glowing medium is less noisy, and media that cannot be sampled are
 import numpy as np
 import pytest
 
-from volpath_native.emissive_media import no_emissive_media, sample_emissive_point
+from volpath_native.emissive_media import alias_table, no_emissive_media, sample_emissive_point
 from volpath_native.grid_medium import GridMedium
 from volpath_native.integrator import Integrator
 from volpath_native.scene import Camera, Film, Material, Medium, RenderSettings, Scene, World
@@ -63,6 +63,30 @@ def _draws(table, n, seed):
         assert slot == 0
         out[k] = x
     return out, pdf
+
+
+def _alias_probabilities(keep, alias):
+    """Each entry's pick probability under the table: kept at its own slot, or taken as an alias."""
+    n = len(keep)
+    return (keep + np.bincount(alias, weights=1.0 - keep, minlength=n)) / n
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_alias_table_picks_each_cell_by_its_weight(seed):
+    """The cells' alias table (emissive_media.alias_table) gives each cell weight / sum exactly
+    (cells without weight never), on weights spanning orders of magnitude with empty cells;
+    planted: another cell's weight 5 % off is told apart."""
+    rng = np.random.default_rng(seed)
+    weights = rng.random(13824) ** 6 * (rng.random(13824) < 0.6)
+    keep, alias = alias_table(weights)
+    assert np.all((keep >= 0) & (keep <= 1)) and np.all((alias >= 0) & (alias < len(weights)))
+    probabilities = _alias_probabilities(keep, alias)
+    expected = weights / weights.sum()
+    assert np.allclose(probabilities, expected, rtol=1e-9, atol=1e-15)
+    assert np.all(probabilities[weights == 0] < 1e-15)
+    planted = weights.copy()
+    planted[np.argmax(weights)] *= 1.05
+    assert not np.allclose(probabilities, planted / planted.sum(), rtol=1e-9, atol=1e-15)
 
 
 @pytest.mark.parametrize("inset, planted", [(0.0, 1.0), (0.0, 1.15), (0.17, 1.0), (0.17, 1.15)])
