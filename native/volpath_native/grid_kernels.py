@@ -65,8 +65,6 @@ GridTables = namedtuple("GridTables", [
     "residual_cells",     # (R0,R1,R2,4) float64 per cell: the bound of |sigma_t - control| (the residual
                           # rate), then the per-channel control extinction (residual ratio tracking);
                           # one cache line per cell step (GridMedium.residual_rate / control_rgb view it)
-    "control_mean",       # (R0,R1,R2) float64 the control's channel mean per cell (next-event distances:
-                          # grid_control_walk reads 8 bytes a cell instead of a 32-byte entry)
     "extrema",            # (R0,R1,R2,2) float64 smallest and largest sigma_t (any channel) per cell
     "cell_shape",         # (3,) int64 majorant cells per axis
     "index_to_cell",      # (3,) float64 scale from index space to majorant-cell space
@@ -436,13 +434,13 @@ def grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, target, t_q
     depth, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
         0.0, t, sigma_extra, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
     rx, ry, rz = G.cell_shape[0], G.cell_shape[1], G.cell_shape[2]
-    c = G.control_mean
+    c = G.residual_cells
     while active:
         if found and t_query < t:
             return depth, found, t_found, sigma_found, depth_q, sigma_q
         axis, crossing = _next_crossing(nx, ny, nz)
         cell_end = min(crossing, t_exit)
-        sigma = sigma_extra + c[cx, cy, cz]
+        sigma = sigma_extra + (c[cx, cy, cz, 1] + c[cx, cy, cz, 2] + c[cx, cy, cz, 3]) * (1.0 / 3.0)
         depth, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
             t, cell_end, sigma, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
         t = cell_end

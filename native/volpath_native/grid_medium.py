@@ -445,9 +445,6 @@ class GridMedium:
             shape=self.shape,
             sigma_s=self.sigma_s, sigma_a=self.sigma_a, emission=self.emission,
             majorant=self.majorant_grid, residual_cells=self.residual_cells,
-            # the walk's grey control, ((r + g) + b) / 3 as it summed it from the channels (the same
-            # numbers); from the current control, edits included
-            control_mean=(self.control_rgb[..., 0] + self.control_rgb[..., 1] + self.control_rgb[..., 2]) * (1.0 / 3.0),
             extrema=self.extinction_extrema,
             cell_shape=self.majorant_shape,
             index_to_cell=self.majorant_shape / (self.shape - 1).astype(np.float64),
