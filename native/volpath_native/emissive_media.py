@@ -36,8 +36,11 @@ from .jit import inline_stage_kernel
 #: relative tolerance of "the boundary mesh fills the medium's box" (volumes compared)
 BOX_TOLERANCE = 1e-4
 #: the share of surface vertices that take an emission sample (the point density both MIS sides
-#: use is this share x p_point)
-EMISSION_SHARE = 1.0
+#: use is this share x p_point). Each sample's shadow ray tracks the transmittance through the
+#: medium (program lookups); fewer samples leave more of the glow to the MIS-weighted bounces.
+#: Measured on the procedural fire (48x48, 3 s, paired by seed, 4 seeds per run; README session 26),
+#: error x time against 1.0: 0.5 -> 0.947, 0.25 -> 0.945; against 0.5: 0.35 -> 0.945, 0.7 -> 0.985
+EMISSION_SHARE = 0.35
 
 # count: sampled media (0: none); slot (K,): their grid slot; cell_start (K + 1,): each one's first
 # cell in the concatenated arrays; cell_keep (N,), cell_alias (N,): the cells' pick probabilities

@@ -59,10 +59,12 @@ def _draws(table, n, seed):
     out = np.empty((n, 3))
     pdf = np.empty(n)
     for k, (a, b, c, d) in enumerate(rng.random((n, 4))):
-        slot, x, pdf[k] = sample_emissive_point(table, a, b, c, d)
+        # the vertices that take a sample (u < share); their points' density is pdf / share
+        slot, x, pdf[k] = sample_emissive_point(table, a * table.share, b, c, d)
         assert slot == 0
         out[k] = x
-    return out, pdf
+    assert sample_emissive_point(table, table.share, 0.5, 0.5, 0.5)[0] == -1 or table.share >= 1.0
+    return out, pdf / table.share
 
 
 def _alias_probabilities(keep, alias):
