@@ -452,6 +452,40 @@ def grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, target, t_q
     return depth, found, t_found, sigma_found, depth_q, sigma_q
 
 
+@stage_kernel
+def grid_control_occupancy(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra):
+    """(control depth of [0, t_end], occupancy) of a unit ray, the control extinction sigma_c as
+    grid_control_walk's: occupancy = (integral of sigma_c)^2 / (t_end x integral of sigma_c^2), 1
+    where sigma_c is constant, about the filled fraction where a few cells hold the medium, 0 where
+    it is empty. A walk without lookups."""
+    s1 = s2 = 0.0
+    active, t, t_exit, cx, cy, cz, nx, ny, nz, ex, ey, ez, sx, sy, sz = _dda_start(
+        G, ox, oy, oz, dx, dy, dz, 0.0, t_end)
+    if not active:
+        t, t_exit = t_end, t_end
+    s1 += sigma_extra * t
+    s2 += sigma_extra * sigma_extra * t
+    rx, ry, rz = G.cell_shape[0], G.cell_shape[1], G.cell_shape[2]
+    c = G.residual_cells
+    while active:
+        axis, crossing = _next_crossing(nx, ny, nz)
+        cell_end = min(crossing, t_exit)
+        sigma = sigma_extra + (c[cx, cy, cz, 1] + c[cx, cy, cz, 2] + c[cx, cy, cz, 3]) * (1.0 / 3.0)
+        length = max(cell_end - t, 0.0)
+        s1 += sigma * length
+        s2 += sigma * sigma * length
+        t = cell_end
+        cx, cy, cz, nx, ny, nz, left = _step_cell(axis, cx, cy, cz, nx, ny, nz, sx, sy, sz, ex, ey, ez,
+                                                    rx, ry, rz)
+        active = not (left or crossing >= t_exit)
+    rest = max(t_end - t_exit, 0.0)
+    s1 += sigma_extra * rest
+    s2 += sigma_extra * sigma_extra * rest
+    if not (s2 > 0.0 and t_end > 0.0):
+        return s1, 0.0
+    return s1, min(s1 * s1 / (t_end * s2), 1.0)
+
+
 #: share of the uniform distance among the distance techniques of grid next-event vertices: every
 #: point of the segment keeps a positive pdf where the control is 0 but the medium is not
 NEE_UNIFORM_SHARE = 0.1
@@ -471,6 +505,13 @@ def grid_nee_distance_sample_pdf(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, 
     uniform; grid_nee_distance_pdf gives the same density at any t. Two walks: the one that finds
     the distance also gives the control depth (the target) and extinction there."""
     total = grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, np.inf, -1.0)[0]
+    return grid_nee_distance_sample_pdf_given(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, total, u_choice, u_t)
+
+
+@stage_kernel
+def grid_nee_distance_sample_pdf_given(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, total, u_choice, u_t):
+    """grid_nee_distance_sample_pdf with the segment's control depth `total` already walked
+    (grid_control_occupancy)."""
     if not total > 0.0:
         return u_t * t_end, 1.0 / t_end
     if u_choice < NEE_UNIFORM_SHARE:

@@ -98,7 +98,7 @@ def scene_tables(scene: Scene, accel: Accelerator, media: MediaTable) -> pk.Scen
         volume_bounces=int(st.volume_bounces), glossy_bounces=int(st.glossy_bounces),
         transmission_bounces=int(st.transmission_bounces), transparent_bounces=int(st.transparent_bounces),
         rr_min_bounces=int(st.russian_roulette_min_bounces),
-        volume_sampling=pk.VOLUME_SAMPLING[st.volume_sampling],
+        volume_sampling=pk.VOLUME_SAMPLING[st.volume_sampling], grid_equiangular_share=float(pk.GRID_EQUIANGULAR_SHARE),
         glow=glow_table(scene.lights, media), emitters=no_emissive_media())
 
 

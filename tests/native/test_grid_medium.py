@@ -404,3 +404,37 @@ def test_boundary_mesh_is_closed_with_outward_normals(mirror):
     lo, hi = medium.world_bounds()
     np.testing.assert_allclose(mesh.vertices.min(axis=0), lo, rtol=1e-6, atol=1e-6)
     np.testing.assert_allclose(mesh.vertices.max(axis=0), hi, rtol=1e-6, atol=1e-6)
+
+
+def test_control_occupancy_measures_how_evenly_the_control_fills_a_segment():
+    """grid_kernels.grid_control_occupancy (path_kernels._grid_nee scales its equiangular share by
+    it): its depth is grid_control_walk's, its occupancy (integral sigma_c)^2 / (length x integral
+    sigma_c^2) matches a fine numerical integral of the walk's own sigma_c over a segment crossing
+    an empty half (a planted formula without the square is far off), is 1 in a constant control,
+    and the distance sampler given that depth draws what it draws alone."""
+    from volpath_native.grid_kernels import (grid_control_occupancy, grid_control_walk, grid_nee_distance_sample_pdf,
+                                             grid_nee_distance_sample_pdf_given)
+    n = 16
+    i = np.arange(n, dtype=np.float32)
+    density = np.broadcast_to((0.5 + 0.3 * i)[:, None, None], (n, n, n)).copy()
+    density[:, n // 2:, :] = 0.0
+    G = GridMedium("occupancy", density, np.diag([0.1, 0.1, 0.1, 1.0]), 0.8, 0.2).tables
+    o, d = np.array([-0.3, 0.2, 0.6]), np.array([1.0, 0.9, 0.2])
+    d /= np.linalg.norm(d)
+    t_end, extra = 3.0, 0.05
+    depth, occupancy = grid_control_occupancy(G, *o, *d, t_end, extra)
+    assert depth == pytest.approx(grid_control_walk(G, *o, *d, t_end, extra, np.inf, -1.0)[0], rel=1e-12)
+    ts = (np.arange(60000) + 0.5) / 60000 * t_end
+    sigma = np.array([grid_control_walk(G, *o, *d, t_end, extra, np.inf, t)[5] for t in ts])
+    s1, s2 = sigma.mean() * t_end, (sigma ** 2).mean() * t_end
+    assert occupancy == pytest.approx(s1 * s1 / (t_end * s2), rel=2e-3)
+    assert 0.05 < occupancy < 0.9
+    assert abs(s1 / (t_end * np.sqrt(s2 / t_end)) - occupancy) > 0.05  # the planted formula
+    constant = GridMedium("even", np.ones((n, n, n), np.float32), np.diag([0.1, 0.1, 0.1, 1.0]), 0.8, 0.2).tables
+    inside_o, inside_d = np.array([0.2, 0.75, 0.75]), np.array([1.0, 0.0, 0.0])
+    assert grid_control_occupancy(constant, *inside_o, *inside_d, 1.0, 0.0)[1] == pytest.approx(1.0, rel=1e-9)
+    assert grid_control_occupancy(G, *o, *d, t_end, 0.0)[1] < occupancy  # no medium around: emptier
+    for u_choice, u_t in ((0.05, 0.3), (0.5, 0.7), (0.9, 0.01)):
+        alone = grid_nee_distance_sample_pdf(G, *o, *d, t_end, extra, u_choice, u_t)
+        given = grid_nee_distance_sample_pdf_given(G, *o, *d, t_end, extra, depth, u_choice, u_t)
+        assert alone == given
