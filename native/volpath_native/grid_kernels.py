@@ -504,14 +504,15 @@ def grid_nee_distance_sample_pdf(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, 
     distribution sigma_c exp(-control depth) (grid_control_walk) or, with NEE_UNIFORM_SHARE,
     uniform; grid_nee_distance_pdf gives the same density at any t. Two walks: the one that finds
     the distance also gives the control depth (the target) and extinction there."""
-    total = grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, np.inf, -1.0)[0]
-    return grid_nee_distance_sample_pdf_given(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, total, u_choice, u_t)
+    return grid_nee_distance_sample_pdf_given(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, -1.0, u_choice, u_t)
 
 
 @stage_kernel
 def grid_nee_distance_sample_pdf_given(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, total, u_choice, u_t):
-    """grid_nee_distance_sample_pdf with the segment's control depth `total` already walked
-    (grid_control_occupancy)."""
+    """grid_nee_distance_sample_pdf with the segment's control depth `total` if already walked
+    (grid_control_occupancy), else (total < 0) walked here."""
+    if total < 0.0:
+        total = grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, np.inf, -1.0)[0]
     if not total > 0.0:
         return u_t * t_end, 1.0 / t_end
     if u_choice < NEE_UNIFORM_SHARE:

@@ -35,8 +35,7 @@ from .emissive_media import bounce_share, sample_emissive_point
 from .film import filter_offset1
 from .grid_kernels import STREAM_DIMENSIONS
 from .grid_slots import (slot_attenuation, slot_cell_max_extinction, slot_control_occupancy, slot_emission,
-                         slot_free_flight, slot_g, slot_nee_distance_pdf, slot_nee_distance_sample_pdf,
-                         slot_nee_distance_sample_pdf_given, slot_scattering, slot_transmittance)
+                         slot_free_flight, slot_g, slot_nee_distance_pdf, slot_nee_distance_sample_pdf_given, slot_scattering, slot_transmittance)
 from .glow_guide import (GLOW_SHARE, glow_pdf, glow_sample, guided_label, medium_glow_pdf, medium_glow_sample,
                          medium_glow_share, mixture_pdf, surface_has_delta)
 from .jit import inline_stage_kernel, stage_kernel
@@ -1302,7 +1301,7 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
     u_t = _u(K, p, iteration, D_MED_T)
     gi = _first_grid(S, C, p)
     sigma_extra = (st[0] + st[1] + st[2]) / 3.0
-    total = -1.0  # the segment's control depth, once walked
+    total = -1.0  # the segment's control depth, once walked (else the distance sampler walks it)
     if 0.0 < prob_eq < 1.0:  # equiangular distances ignore the density: fewer where it fills less
         total, occupancy = slot_control_occupancy(GR, gi, F[p, TIME], o, d, t_end, sigma_extra)
         prob_eq *= occupancy
@@ -1314,13 +1313,8 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
         if finite and prob_eq < 1.0:
             pdf_t += (1.0 - prob_eq) * slot_nee_distance_pdf(GR, gi, F[p, TIME], o, d, t_end, sigma_extra, t)
     else:  # (prob_eq < 1 here, so the segment is finite)
-        u_choice, u_distance = _u(K, p, iteration, D_MED_TECH), u_t / (1.0 - prob_eq)
-        if total >= 0.0:
-            t, pdf_distance = slot_nee_distance_sample_pdf_given(GR, gi, F[p, TIME], o, d, t_end, sigma_extra, total,
-                                                                 u_choice, u_distance)
-        else:
-            t, pdf_distance = slot_nee_distance_sample_pdf(GR, gi, F[p, TIME], o, d, t_end, sigma_extra, u_choice,
-                                                           u_distance)
+        t, pdf_distance = slot_nee_distance_sample_pdf_given(GR, gi, F[p, TIME], o, d, t_end, sigma_extra, total,
+                                                             _u(K, p, iteration, D_MED_TECH), u_t / (1.0 - prob_eq))
         pdf_t = (1.0 - prob_eq) * pdf_distance + _weighted_equiangular_pdf(prob_eq, setup, t)
     if not (pdf_t > 0.0 and np.isfinite(pdf_t)):
         return n_shadow, 0.0
