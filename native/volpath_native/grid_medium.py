@@ -47,6 +47,7 @@ import numpy as np
 
 from .grid_kernels import (FLAG_BUDGET, FLAG_LOOKUPS, FLAG_MAJORANT, FLAG_RESIDUAL, N_FLAGS, TRACKING_BUDGET, GridTables,
                            box_interval_many, coefficients_many, dda_cells1, density_many, track_many)
+from . import grid_kernels
 from .medium_motion import motion_fields
 from .scene import Mesh, SceneError, rgb
 from .shading.images import empty_image_table
@@ -448,7 +449,7 @@ class GridMedium:
             extrema=self.extinction_extrema,
             cell_shape=self.majorant_shape,
             index_to_cell=self.majorant_shape / (self.shape - 1).astype(np.float64),
-            g=self.g,
+            g=self.g, nee_uniform_share=grid_kernels.NEE_UNIFORM_SHARE,
             flags=self._flags, violation=self._violation, stop=self._stop,
             **self._program_tables(),
             **motion_fields(self.motion, self.motion_object_to_world, self.world_to_index),

@@ -35,7 +35,7 @@ from .emissive_media import bounce_share, sample_emissive_point
 from .film import filter_offset1
 from .grid_kernels import STREAM_DIMENSIONS
 from .grid_slots import (slot_attenuation, slot_cell_max_extinction, slot_control_occupancy, slot_emission,
-                         slot_free_flight, slot_g, slot_nee_distance_pdf, slot_nee_distance_sample_pdf_given, slot_scattering, slot_transmittance)
+                         slot_free_flight, slot_g, slot_nee_distance_pdf_given, slot_nee_distance_sample_pdf_given, slot_scattering, slot_transmittance)
 from .glow_guide import (GLOW_SHARE, glow_pdf, glow_sample, guided_label, medium_glow_pdf, medium_glow_sample,
                          medium_glow_share, mixture_pdf, surface_has_delta)
 from .jit import inline_stage_kernel, stage_kernel
@@ -1311,7 +1311,8 @@ def _grid_nee(S, T, SP, SPS, GR, F, I, K, C, p, iteration, o, d, beta, ss, st, g
             t = 0.0
         pdf_t = prob_eq * equiangular_pdf1(setup, t)
         if finite and prob_eq < 1.0:
-            pdf_t += (1.0 - prob_eq) * slot_nee_distance_pdf(GR, gi, F[p, TIME], o, d, t_end, sigma_extra, t)
+            pdf_t += (1.0 - prob_eq) * slot_nee_distance_pdf_given(GR, gi, F[p, TIME], o, d, t_end, sigma_extra,
+                                                                   total, t)
     else:  # (prob_eq < 1 here, so the segment is finite)
         t, pdf_distance = slot_nee_distance_sample_pdf_given(GR, gi, F[p, TIME], o, d, t_end, sigma_extra, total,
                                                              _u(K, p, iteration, D_MED_TECH), u_t / (1.0 - prob_eq))

@@ -411,8 +411,9 @@ def test_control_occupancy_measures_how_evenly_the_control_fills_a_segment():
     it): its depth is grid_control_walk's, its occupancy (integral sigma_c)^2 / (length x integral
     sigma_c^2) matches a fine numerical integral of the walk's own sigma_c over a segment crossing
     an empty half (a planted formula without the square is far off), is 1 in a constant control,
-    and the distance sampler given that depth draws what it draws alone."""
-    from volpath_native.grid_kernels import (grid_control_occupancy, grid_control_walk, grid_nee_distance_sample_pdf,
+    and the distance sampler and density given that depth give what they give alone."""
+    from volpath_native.grid_kernels import (grid_control_occupancy, grid_control_walk, grid_nee_distance_pdf,
+                                             grid_nee_distance_pdf_given, grid_nee_distance_sample_pdf,
                                              grid_nee_distance_sample_pdf_given)
     n = 16
     i = np.arange(n, dtype=np.float32)
@@ -434,7 +435,12 @@ def test_control_occupancy_measures_how_evenly_the_control_fills_a_segment():
     inside_o, inside_d = np.array([0.2, 0.75, 0.75]), np.array([1.0, 0.0, 0.0])
     assert grid_control_occupancy(constant, *inside_o, *inside_d, 1.0, 0.0)[1] == pytest.approx(1.0, rel=1e-9)
     assert grid_control_occupancy(G, *o, *d, t_end, 0.0)[1] < occupancy  # no medium around: emptier
-    for u_choice, u_t in ((0.05, 0.3), (0.5, 0.7), (0.9, 0.01)):
+    for u_choice, u_t in ((0.01, 0.3), (0.5, 0.7), (0.9, 0.01)):  # 0.01: the uniform technique
         alone = grid_nee_distance_sample_pdf(G, *o, *d, t_end, extra, u_choice, u_t)
         given = grid_nee_distance_sample_pdf_given(G, *o, *d, t_end, extra, depth, u_choice, u_t)
         assert alone == given
+    # ... and the density given the depth (its walk stops past t) is the density alone, on both
+    # sides of the empty half and at the ends
+    for t in (0.0, 0.4, 1.3, 2.2, 2.999, t_end):
+        alone = grid_nee_distance_pdf(G, *o, *d, t_end, extra, t)
+        assert grid_nee_distance_pdf_given(G, *o, *d, t_end, extra, depth, t) == pytest.approx(alone, rel=1e-12)
