@@ -35,7 +35,8 @@ from .emissive_media import bounce_share, sample_emissive_point
 from .film import filter_offset1
 from .grid_kernels import STREAM_DIMENSIONS
 from .grid_slots import (slot_attenuation, slot_cell_max_extinction, slot_control_occupancy, slot_emission,
-                         slot_free_flight, slot_g, slot_nee_distance_pdf_given, slot_nee_distance_sample_pdf_given, slot_scattering, slot_transmittance)
+                         slot_free_flight, slot_g, slot_nee_distance_pdf_given, slot_nee_distance_sample_pdf_given,
+                         slot_scattering, slot_transmittance)
 from .glow_guide import (GLOW_SHARE, glow_pdf, glow_sample, guided_label, medium_glow_pdf, medium_glow_sample,
                          medium_glow_share, mixture_pdf, surface_has_delta)
 from .jit import inline_stage_kernel, stage_kernel
