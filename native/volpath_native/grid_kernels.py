@@ -402,15 +402,49 @@ def _dda_start(G, ox, oy, oz, dx, dy, dz, t_min, t_max):
 # The control extinction as a distance distribution (next-event vertices in grid media)
 # ---------------------------------------------------------------------------------------------
 @inline_stage_kernel
-def _control_piece(a, b, sigma, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q):
-    """Account one piece [a, b) of constant control extinction: the depth reached, where the
-    target depth falls, the depth and extinction at t_query."""
+def _control_piece(a, b, sigma, depth, square, target, found, t_found, sigma_found, t_query, depth_q, sigma_q):
+    """Account one piece [a, b) of constant control extinction: the depth reached, the integral of
+    sigma_c^2 reached, where the target depth falls, the depth and extinction at t_query."""
     if a <= t_query < b:
         depth_q, sigma_q = depth + sigma * (t_query - a), sigma
     step = sigma * (b - a)
     if not found and sigma > 0.0 and depth + step >= target:
         found, t_found, sigma_found = True, min(a + (target - depth) / sigma, b), sigma
-    return depth + step, found, t_found, sigma_found, depth_q, sigma_q
+    return depth + step, square + sigma * step, found, t_found, sigma_found, depth_q, sigma_q
+
+
+@inline_stage_kernel
+def _control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, target, t_query):
+    """grid_control_walk's walk, which also returns the integral of sigma_c^2 over what it walked
+    (grid_control_occupancy) as its second value."""
+    depth = square = 0.0
+    found = False
+    t_found = t_end
+    sigma_found = 0.0
+    depth_q = 0.0
+    sigma_q = sigma_extra
+    active, t, t_exit, cx, cy, cz, nx, ny, nz, ex, ey, ez, sx, sy, sz = _dda_start(
+        G, ox, oy, oz, dx, dy, dz, 0.0, t_end)
+    if not active:
+        t, t_exit = t_end, t_end
+    depth, square, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
+        0.0, t, sigma_extra, depth, square, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
+    rx, ry, rz = G.cell_shape[0], G.cell_shape[1], G.cell_shape[2]
+    c = G.residual_cells
+    while active:
+        if (found or target < 0.0) and t_query < t:
+            return depth, square, found, t_found, sigma_found, depth_q, sigma_q
+        axis, crossing = _next_crossing(nx, ny, nz)
+        cell_end = min(crossing, t_exit)
+        sigma = sigma_extra + (c[cx, cy, cz, 1] + c[cx, cy, cz, 2] + c[cx, cy, cz, 3]) * (1.0 / 3.0)
+        depth, square, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
+            t, cell_end, sigma, depth, square, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
+        t = cell_end
+        cx, cy, cz, nx, ny, nz, left = _step_cell(axis, cx, cy, cz, nx, ny, nz, sx, sy, sz, ex, ey, ez,
+                                                    rx, ry, rz)
+        active = not (left or crossing >= t_exit)
+    return _control_piece(t_exit, t_end, sigma_extra, depth, square, target, found, t_found, sigma_found, t_query,
+                          depth_q, sigma_q)
 
 
 @stage_kernel
@@ -423,34 +457,8 @@ def grid_control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, target, t_q
     the target is found (or, target < 0, none is sought) and t_query passed, the walk stops: the
     first value is then the depth up to there (the sampler's walk needs only where the target
     falls, a density at t_query given the segment's depth only what lies before it)."""
-    depth = 0.0
-    found = False
-    t_found = t_end
-    sigma_found = 0.0
-    depth_q = 0.0
-    sigma_q = sigma_extra
-    active, t, t_exit, cx, cy, cz, nx, ny, nz, ex, ey, ez, sx, sy, sz = _dda_start(
-        G, ox, oy, oz, dx, dy, dz, 0.0, t_end)
-    if not active:
-        t, t_exit = t_end, t_end
-    depth, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
-        0.0, t, sigma_extra, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
-    rx, ry, rz = G.cell_shape[0], G.cell_shape[1], G.cell_shape[2]
-    c = G.residual_cells
-    while active:
-        if (found or target < 0.0) and t_query < t:
-            return depth, found, t_found, sigma_found, depth_q, sigma_q
-        axis, crossing = _next_crossing(nx, ny, nz)
-        cell_end = min(crossing, t_exit)
-        sigma = sigma_extra + (c[cx, cy, cz, 1] + c[cx, cy, cz, 2] + c[cx, cy, cz, 3]) * (1.0 / 3.0)
-        depth, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
-            t, cell_end, sigma, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
-        t = cell_end
-        cx, cy, cz, nx, ny, nz, left = _step_cell(axis, cx, cy, cz, nx, ny, nz, sx, sy, sz, ex, ey, ez,
-                                                    rx, ry, rz)
-        active = not (left or crossing >= t_exit)
-    depth, found, t_found, sigma_found, depth_q, sigma_q = _control_piece(
-        t_exit, t_end, sigma_extra, depth, target, found, t_found, sigma_found, t_query, depth_q, sigma_q)
+    depth, _, found, t_found, sigma_found, depth_q, sigma_q = _control_walk(
+        G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, target, t_query)
     return depth, found, t_found, sigma_found, depth_q, sigma_q
 
 
@@ -459,30 +467,8 @@ def grid_control_occupancy(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra):
     """(control depth of [0, t_end], occupancy) of a unit ray, the control extinction sigma_c as
     grid_control_walk's: occupancy = (integral of sigma_c)^2 / (t_end x integral of sigma_c^2), 1
     where sigma_c is constant, about the filled fraction where a few cells hold the medium, 0 where
-    it is empty. A walk without lookups."""
-    s1 = s2 = 0.0
-    active, t, t_exit, cx, cy, cz, nx, ny, nz, ex, ey, ez, sx, sy, sz = _dda_start(
-        G, ox, oy, oz, dx, dy, dz, 0.0, t_end)
-    if not active:
-        t, t_exit = t_end, t_end
-    s1 += sigma_extra * t
-    s2 += sigma_extra * sigma_extra * t
-    rx, ry, rz = G.cell_shape[0], G.cell_shape[1], G.cell_shape[2]
-    c = G.residual_cells
-    while active:
-        axis, crossing = _next_crossing(nx, ny, nz)
-        cell_end = min(crossing, t_exit)
-        sigma = sigma_extra + (c[cx, cy, cz, 1] + c[cx, cy, cz, 2] + c[cx, cy, cz, 3]) * (1.0 / 3.0)
-        length = max(cell_end - t, 0.0)
-        s1 += sigma * length
-        s2 += sigma * sigma * length
-        t = cell_end
-        cx, cy, cz, nx, ny, nz, left = _step_cell(axis, cx, cy, cz, nx, ny, nz, sx, sy, sz, ex, ey, ez,
-                                                    rx, ry, rz)
-        active = not (left or crossing >= t_exit)
-    rest = max(t_end - t_exit, 0.0)
-    s1 += sigma_extra * rest
-    s2 += sigma_extra * sigma_extra * rest
+    it is empty. The same walk without lookups."""
+    s1, s2, _, _, _, _, _ = _control_walk(G, ox, oy, oz, dx, dy, dz, t_end, sigma_extra, np.inf, -1.0)
     if not (s2 > 0.0 and t_end > 0.0):
         return s1, 0.0
     return s1, min(s1 * s1 / (t_end * s2), 1.0)
