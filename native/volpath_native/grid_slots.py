@@ -14,9 +14,8 @@ no-op for static media).
 from __future__ import annotations
 
 from .grid_kernels import (grid_attenuation, grid_cell_max_extinction, grid_control_occupancy, grid_emission,
-                           grid_free_flight, grid_nee_distance_pdf, grid_nee_distance_pdf_given,
-                           grid_nee_distance_sample_pdf, grid_nee_distance_sample_pdf_given, grid_scattering,
-                           grid_transmittance)
+                           grid_free_flight, grid_nee_distance_pdf_given, grid_nee_distance_sample_pdf_given,
+                           grid_scattering, grid_transmittance)
 from .jit import inline_stage_kernel
 from .medium_motion import place_at_time
 
@@ -97,19 +96,6 @@ def slot_g(GR, gi):
     if gi == 3:
         return GR[3].g
     return GR[gi].g
-
-
-@inline_stage_kernel
-def slot_nee_distance_sample_pdf(GR, gi, time, o, d, t_end, sigma_extra, u_choice, u_t):
-    """grid_nee_distance_sample_pdf of the grid in slot gi: (t, pdf)."""
-    return _on_slot(GR, gi, time, grid_nee_distance_sample_pdf,
-                    (o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, u_choice, u_t))
-
-
-@inline_stage_kernel
-def slot_nee_distance_pdf(GR, gi, time, o, d, t_end, sigma_extra, t):
-    """grid_nee_distance_pdf of the grid in slot gi at distance t."""
-    return _on_slot(GR, gi, time, grid_nee_distance_pdf, (o[0], o[1], o[2], d[0], d[1], d[2], t_end, sigma_extra, t))
 
 
 @inline_stage_kernel

@@ -6,14 +6,13 @@ import numpy as np
 from test_grid_kernels import smooth_random_medium
 
 from volpath_native.grid_kernels import (grid_attenuation, grid_control_occupancy, grid_free_flight,
-                                         grid_nee_distance_pdf, grid_nee_distance_pdf_given,
-                                         grid_nee_distance_sample_pdf, grid_nee_distance_sample_pdf_given,
+                                         grid_nee_distance_pdf_given, grid_nee_distance_sample_pdf_given,
                                          grid_scattering, grid_transmittance)
 from volpath_native.grid_slots import (GRID_SLOTS, slot_attenuation, slot_control_occupancy, slot_free_flight, slot_g,
-                                       slot_nee_distance_pdf, slot_nee_distance_pdf_given, slot_nee_distance_sample_pdf,
-                                       slot_nee_distance_sample_pdf_given, slot_scattering, slot_transmittance)
+                                       slot_nee_distance_pdf_given, slot_nee_distance_sample_pdf_given, slot_scattering,
+                                       slot_transmittance)
 
-N_VALUES = 19
+N_VALUES = 16
 
 
 @numba.njit(_nrt=False)
@@ -23,13 +22,11 @@ def _through_slots(GR, gi, o, d, t_max, key, out):
     f = slot_free_flight(GR, gi, 0.0, o, d, t_max, key, np.uint64(7), (1.0, 0.5, 0.25), (0.0, 0.0, 0.0, 0.0), False)
     x = (o[0] + 0.3 * t_max * d[0], o[1] + 0.3 * t_max * d[1], o[2] + 0.3 * t_max * d[2])
     s, g = slot_scattering(GR, gi, 0.0, x)
-    n_t, n_pdf = slot_nee_distance_sample_pdf(GR, gi, 0.0, o, d, t_max, 0.1, 0.7, 0.4)
-    pdf = slot_nee_distance_pdf(GR, gi, 0.0, o, d, t_max, 0.1, 0.5 * t_max)
     depth, occupancy = slot_control_occupancy(GR, gi, 0.0, o, d, t_max, 0.1)
     g_t, g_pdf = slot_nee_distance_sample_pdf_given(GR, gi, 0.0, o, d, t_max, 0.1, depth, 0.7, 0.4)
     pdf_given = slot_nee_distance_pdf_given(GR, gi, 0.0, o, d, t_max, 0.1, depth, 0.5 * t_max)
-    values = (t[0], t[1], t[2], a[0], a[3], f[0], f[2], f[3], s[0], s[2], g, slot_g(GR, gi), n_t, n_pdf, pdf,
-              occupancy, g_t, g_pdf, pdf_given)
+    values = (t[0], t[1], t[2], a[0], a[3], f[0], f[2], f[3], s[0], s[2], g, slot_g(GR, gi), occupancy,
+              g_t, g_pdf, pdf_given)
     for i in range(len(values)):
         out[i] = values[i]
 
@@ -42,13 +39,11 @@ def _direct(G, o, d, t_max, key, out):
                          0.0, 0.0, 0.0, 0.0, False)
     x = (o[0] + 0.3 * t_max * d[0], o[1] + 0.3 * t_max * d[1], o[2] + 0.3 * t_max * d[2])
     s = grid_scattering(G, x[0], x[1], x[2])
-    n_t, n_pdf = grid_nee_distance_sample_pdf(G, o[0], o[1], o[2], d[0], d[1], d[2], t_max, 0.1, 0.7, 0.4)
-    pdf = grid_nee_distance_pdf(G, o[0], o[1], o[2], d[0], d[1], d[2], t_max, 0.1, 0.5 * t_max)
     depth, occupancy = grid_control_occupancy(G, o[0], o[1], o[2], d[0], d[1], d[2], t_max, 0.1)
     g_t, g_pdf = grid_nee_distance_sample_pdf_given(G, o[0], o[1], o[2], d[0], d[1], d[2], t_max, 0.1, depth, 0.7, 0.4)
     pdf_given = grid_nee_distance_pdf_given(G, o[0], o[1], o[2], d[0], d[1], d[2], t_max, 0.1, depth, 0.5 * t_max)
-    values = (t[0], t[1], t[2], a[0], a[3], f[0], f[2], f[3], s[0], s[2], G.g, G.g, n_t, n_pdf, pdf,
-              occupancy, g_t, g_pdf, pdf_given)
+    values = (t[0], t[1], t[2], a[0], a[3], f[0], f[2], f[3], s[0], s[2], G.g, G.g, occupancy,
+              g_t, g_pdf, pdf_given)
     for i in range(len(values)):
         out[i] = values[i]
 
@@ -75,4 +70,4 @@ def test_every_slot_calls_its_own_grid():
     second = np.zeros(N_VALUES)
     _through_slots(GR, 1, o, d, t_max, np.uint64(1234 + 1), second)
     assert not np.array_equal(first[:10], second[:10])
-    assert first[15] != second[15]  # the occupancy too (the control walks read their slot's cells)
+    assert first[12] != second[12]  # the occupancy too (the control walks read their slot's cells)
