@@ -163,9 +163,8 @@ def write_reference(args) -> int:
         native_scene, _ = volpath_engine.export(scene, args.resolution)
         bounces = cycles_engine.BounceLimits.from_settings(native_scene.settings)
         print(f"rendering a {args.spp} spp Cycles reference ...", file=sys.stderr)
-        with quiet_stdout():
-            run, = cycles_engine.render_runs(scene, runs=1, samples=args.spp, base_seed=args.seed,
-                                            bounces=bounces, resolution=args.resolution)
+        with quiet_stdout(), cycles_engine.matched_settings(scene, bounces, args.resolution):
+            run = cycles_engine.render_reference(scene, samples=args.spp, seed=args.seed)
     except (cycles_engine.CyclesUnavailable, ValueError, RuntimeError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 1

@@ -204,6 +204,36 @@ def render_runs(scene, *, runs: int, samples: int, base_seed: int, bounces: Boun
     return results
 
 
+#: Largest sample count of one Cycles render inside a reference. Cycles sums samples into float32
+#: render buffers (kernel/film/write.h film_write_pass_spectrum: atomic float adds), so a pixel
+#: that returns the same value every sample drifts as the sum outgrows its increments: measured
+#: on the coloured absorber's emissive backdrop, Emission (1, 0.95, 0.9) x 2 seen directly, green
+#: 1.900001 at 64 spp, 1.90027 at 16384, 1.89892 at 65536 (red, 2.0, exact). A reference is
+#: the float64 mean of renders of at most this many samples (relative drift <= about
+#: REFERENCE_CHUNK_SAMPLES x 2^-24 = 6e-5).
+REFERENCE_CHUNK_SAMPLES = 1024
+
+
+def render_reference(scene, *, samples: int, seed: int, scratch: Optional[Path] = None) -> CyclesRun:
+    """A high-sample Cycles image (inside matched_settings) as the mean of independent renders of
+    at most REFERENCE_CHUNK_SAMPLES each (seeds seed, seed + 1, ...), free of the float32 film
+    drift one long render accumulates; render_seconds is the chunks' sum."""
+    chunks = max(1, -(-int(samples) // REFERENCE_CHUNK_SAMPLES))
+    if chunks == 1:
+        return render_once(scene, samples=samples, seed=seed, scratch=scratch)
+    total = None
+    runs = []
+    for k in range(chunks):
+        part = min(REFERENCE_CHUNK_SAMPLES, int(samples) - k * REFERENCE_CHUNK_SAMPLES)
+        run = render_once(scene, samples=part, seed=seed + k, scratch=scratch)
+        weighted = run.image.astype(np.float64) * run.samples
+        total = weighted if total is None else total + weighted
+        runs.append(run)
+    achieved = sum(r.samples for r in runs)
+    return CyclesRun(image=(total / achieved).astype(np.float32), samples=achieved,
+                     seconds=sum(r.seconds for r in runs), render_seconds=sum(r.render_seconds for r in runs))
+
+
 def render_shutter_stills(scene, *, stills: int, samples: int, seed: int) -> CyclesRun:
     """One run of `samples` spp as the mean of `stills` still renders (motion blur off, the frame
     moved to each time), one time drawn uniformly in each of `stills` equal parts of the shutter

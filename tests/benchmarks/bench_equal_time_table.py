@@ -145,13 +145,16 @@ def main(argv=None) -> int:
         mitsuba_cell = "-"
         if with_mitsuba:
             try:
-                run, reference = mitsuba_peer.render_equal_time(native_scene, args.seconds, args.reference_spp)
+                # its reference as large as the row's Cycles one (at least --reference-factor x Cycles' run)
+                run, reference = mitsuba_peer.render_equal_time(native_scene, args.seconds,
+                                                                max(args.reference_spp, row.reference_spp))
             except mitsuba_peer.Unsupported as exc:
                 mitsuba_cell = f"n/a ({exc})"
                 print(f"  Mitsuba: not rendered: {exc}")
             else:
                 raw = metrics.relmse(run.image, reference.image)
-                relmse = raw * run.samples / (run.samples + reference.samples)  # its reference's share removed
+                # E[raw] = e (1 + n / n_ref) for an independent reference of the same estimator: remove its share
+                relmse = raw * reference.samples / (run.samples + reference.samples)
                 ratio = relmse * run.render_seconds / (row.relmse_cycles * row.cycles_seconds)
                 mean = run.image.mean(axis=(0, 1)) / np.maximum(row.reference_mean, 1e-30)
                 print(f"  Mitsuba 3 ({mitsuba_peer.VARIANT}): {run.samples} spp in {run.render_seconds:.1f} s "

@@ -1,6 +1,7 @@
 """Equal render-time comparison of VolPath and Cycles on one Blender scene, shared by the benchmarks.
 
-Reference: one high-sample Cycles render (seed 1000), which also gives Cycles' cost per sample,
+Reference: a high-sample Cycles image (seed 1000; the mean of renders of at most
+cycles_engine.REFERENCE_CHUNK_SAMPLES each, against Cycles' float32 film drift), which also gives Cycles' cost per sample,
 kept on disk (REFERENCE_CACHE, keyed by the scene as VolPath exports it, the resolution, the sample
 count and Blender's version; a pilot render then measures the cost per sample); then each engine renders for the same render-time budget (Cycles' scene sync excluded, as its own
 time limit does). relMSE against a noisy reference holds the reference's own error: for Cycles
@@ -129,7 +130,7 @@ def _cycles_reference(scene, native_scene, reference_spp: int, scratch):
         from volpath_native import imageio
         return cycles_engine.CyclesRun(image=imageio.read_exr(cached), samples=reference_spp, seconds=0.0,
                                        render_seconds=0.0)
-    reference = cycles_engine.render_once(scene, samples=reference_spp, seed=1000, scratch=scratch)
+    reference = cycles_engine.render_reference(scene, samples=reference_spp, seed=1000, scratch=scratch)
     _store_reference(reference.image, cached)
     return reference
 
@@ -141,7 +142,11 @@ def _reference_path(native_scene, reference_spp: int, scratch) -> Path:
     from volpath_native.scene_io import save_scene
 
     saved = save_scene(native_scene, Path(scratch) / "reference_key.vpscene")
-    digest = hashlib.sha256(json.dumps([reference_spp, bpy.app.version_string]).encode())
+    from addon.compare.cycles_engine import REFERENCE_CHUNK_SAMPLES
+
+    # the chunk size too: references from one long render (float32 film drift) are not reused
+    digest = hashlib.sha256(json.dumps([reference_spp, bpy.app.version_string,
+                                        f"chunks of {REFERENCE_CHUNK_SAMPLES}"]).encode())
     with np.load(saved) as arrays:  # the arrays, not the zip file (its entries carry the time of writing)
         for name in sorted(arrays.files):
             digest.update(name.encode())

@@ -194,3 +194,24 @@ def test_timed_runs_start_after_the_kernels_are_ready(fog_scene, monkeypatch):
     result = runner.compare_scene(fog_scene, runner.CompareOptions(samples=4, runs=2))
     assert ready and result.volpath.warm_up_seconds >= 2.0
     assert result.volpath.seconds < 2.0, result.volpath.summary()
+
+
+def test_a_reference_is_the_sample_weighted_mean_of_short_renders(fog_scene, tmp_path, monkeypatch):
+    # Cycles sums samples into float32 buffers, so one long render drifts (REFERENCE_CHUNK_SAMPLES);
+    # a reference is the float64 mean of renders of at most that many samples, seeds seed, seed + 1, ...
+    from addon.compare import cycles_engine
+
+    monkeypatch.setattr(cycles_engine, "REFERENCE_CHUNK_SAMPLES", 4)
+    bounces = cycles_engine.BounceLimits()
+    with cycles_engine.matched_settings(fog_scene, bounces, TINY):
+        reference = cycles_engine.render_reference(fog_scene, samples=10, seed=50, scratch=tmp_path)
+        parts = [cycles_engine.render_once(fog_scene, samples=n, seed=50 + k, scratch=tmp_path)
+                 for k, n in enumerate((4, 4, 2))]
+        single = cycles_engine.render_reference(fog_scene, samples=3, seed=50, scratch=tmp_path)
+        once = cycles_engine.render_once(fog_scene, samples=3, seed=50, scratch=tmp_path)
+    expected = sum(p.image.astype(np.float64) * p.samples for p in parts) / 10
+    assert reference.samples == 10
+    np.testing.assert_allclose(reference.image, expected, rtol=1e-6, atol=1e-7)
+    # not a single 10-spp render nor an unweighted mean of the parts (the 2-spp part weighs less)
+    assert not np.allclose(reference.image, np.mean([p.image for p in parts], axis=0), rtol=1e-4, atol=1e-6)
+    np.testing.assert_array_equal(single.image, once.image)  # one chunk: one render
