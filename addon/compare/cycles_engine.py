@@ -218,20 +218,20 @@ def render_reference(scene, *, samples: int, seed: int, scratch: Optional[Path] 
     """A high-sample Cycles image (inside matched_settings) as the mean of independent renders of
     at most REFERENCE_CHUNK_SAMPLES each (seeds seed, seed + 1, ...), free of the float32 film
     drift one long render accumulates; render_seconds is the chunks' sum."""
-    chunks = max(1, -(-int(samples) // REFERENCE_CHUNK_SAMPLES))
-    if chunks == 1:
-        return render_once(scene, samples=samples, seed=seed, scratch=scratch)
-    total = None
-    runs = []
-    for k in range(chunks):
-        part = min(REFERENCE_CHUNK_SAMPLES, int(samples) - k * REFERENCE_CHUNK_SAMPLES)
-        run = render_once(scene, samples=part, seed=seed + k, scratch=scratch)
-        weighted = run.image.astype(np.float64) * run.samples
-        total = weighted if total is None else total + weighted
-        runs.append(run)
-    achieved = sum(r.samples for r in runs)
-    return CyclesRun(image=(total / achieved).astype(np.float32), samples=achieved,
-                     seconds=sum(r.seconds for r in runs), render_seconds=sum(r.render_seconds for r in runs))
+    if int(samples) < 1:
+        raise ValueError(f"a Cycles reference needs at least one sample per pixel, got {samples}")
+    chunk = REFERENCE_CHUNK_SAMPLES
+    return _mean_run([render_once(scene, samples=min(chunk, int(samples) - start), seed=seed + k, scratch=scratch)
+                      for k, start in enumerate(range(0, int(samples), chunk))])
+
+
+def _mean_run(runs: list) -> CyclesRun:
+    """Renders of one scene as one run: the sample-weighted float64 mean of their images, their
+    samples and times summed."""
+    samples = sum(r.samples for r in runs)
+    image = sum(r.image.astype(np.float64) * r.samples for r in runs) / samples
+    return CyclesRun(image=image.astype(np.float32), samples=samples, seconds=sum(r.seconds for r in runs),
+                     render_seconds=sum(r.render_seconds for r in runs))
 
 
 def render_shutter_stills(scene, *, stills: int, samples: int, seed: int) -> CyclesRun:
@@ -259,9 +259,7 @@ def render_shutter_stills(scene, *, stills: int, samples: int, seed: int) -> Cyc
     finally:
         scene.render.use_motion_blur = True
         scene.frame_set(frame, subframe=subframe)
-    image = np.mean([r.image for r in runs], axis=0, dtype=np.float64).astype(np.float32)
-    return CyclesRun(image=image, samples=samples, seconds=sum(r.seconds for r in runs),
-                     render_seconds=sum(r.render_seconds for r in runs))
+    return _mean_run(runs)  # stills of samples // stills each: their plain mean
 
 
 def samples_for_budget(scene, seconds: float, seed: int, count_setup: bool = True) -> int:

@@ -139,11 +139,10 @@ def _reference_path(native_scene, reference_spp: int, scratch) -> Path:
     """Where the reference of this scene (as VolPath exports it: geometry, materials, media, lights,
     camera, film, bounce limits), sample count and Blender version is kept."""
     import bpy
+    from addon.compare.cycles_engine import REFERENCE_CHUNK_SAMPLES
     from volpath_native.scene_io import save_scene
 
     saved = save_scene(native_scene, Path(scratch) / "reference_key.vpscene")
-    from addon.compare.cycles_engine import REFERENCE_CHUNK_SAMPLES
-
     # the chunk size too: references from one long render (float32 film drift) are not reused
     digest = hashlib.sha256(json.dumps([reference_spp, bpy.app.version_string,
                                         f"chunks of {REFERENCE_CHUNK_SAMPLES}"]).encode())
