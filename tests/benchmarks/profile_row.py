@@ -7,6 +7,8 @@ symbols (`nm`: functions are weak symbols in `.ltext`), places them at the addre
 was loaded to, and writes /tmp/perf-PID.map, which `perf report` reads.
 
     perf record -F 1999 -g -o row.data python tests/benchmarks/profile_row.py ROW [SPP]
+    mkfifo /tmp/ctl; PERF_CONTROL=/tmp/ctl perf record --control=fifo:/tmp/ctl -D -1 -F 1999 -g \
+        -o row.data python tests/benchmarks/profile_row.py ROW [SPP]   (the measured render only)
     python tests/benchmarks/profile_row.py --report row.data [FUNCTION]
 
 The report lists the kernels by their share of the compiled code's samples and, per kernel, the
@@ -74,6 +76,15 @@ def _write_map():
     print(f"perf map: {len(lines)} symbols", flush=True)
 
 
+def _perf_control(command: str) -> None:
+    """Tell `perf record --control=fifo:PATH -D -1` to start or stop sampling (PERF_CONTROL=PATH),
+    so that a profile holds the measured render, not the kernels' loading and the export."""
+    fifo = os.environ.get("PERF_CONTROL")
+    if fifo:
+        with open(fifo, "w") as control:
+            control.write(command + "\n")
+
+
 def record(row: str, spp: int) -> None:
     _keep_object_code()
     root = Path(__file__).resolve().parents[2]
@@ -93,9 +104,11 @@ def record(row: str, spp: int) -> None:
         render(scene)  # every kernel loaded
         _write_map()
         scene.settings.samples = spp
+        _perf_control("enable")
         start = time.process_time()
         render(scene)
         cpu = time.process_time() - start
+        _perf_control("disable")
         print(f"{name}: {cpu / (spp * scene.film.width * scene.film.height) * 1e6:.3f} us CPU per sample", flush=True)
 
 
