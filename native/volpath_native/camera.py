@@ -22,7 +22,7 @@ import numpy as np
 
 from . import camera_motion, projection
 from .camera_motion import interpolate_motion1, shutter_time1
-from .jit import kernel
+from .jit import inline_stage_kernel, kernel, stage_kernel
 from .sampling import concentric_disk1
 from .scene import Camera, Film, SceneError
 
@@ -221,7 +221,7 @@ def _panorama_sensor(camera: Camera, width: int, height: int) -> tuple[float, fl
     return size * width / height, size
 
 
-@kernel
+@stage_kernel
 def aperture_sample1(cam, lens_u, lens_v):
     """Point on the lens in units of the aperture radius (camera.h camera_sample_aperture:
     a uniform disk, or a regular polygon of `blades` corners (mapping.h regular_polygon_sample);
@@ -243,7 +243,7 @@ def aperture_sample1(cam, lens_u, lens_v):
     return x * cam.inv_aperture_ratio, y
 
 
-@kernel
+@stage_kernel
 def ray_time1(cam, row, u):
     """Shutter time in [0, 1] of a camera ray of pixel row `row` (counted from the top) for a
     uniform u (camera.h camera_sample: the inverted shutter curve, then the rolling shutter, whose
@@ -259,7 +259,10 @@ def ray_time1(cam, row, u):
     return time
 
 
-@kernel
+# Inlined and without reference counting (as every helper it calls): compiled with it, its reads of
+# the camera's arrays cost atomic increments and decrements, and the call ~110 of the ~240 ns a
+# path of the coloured absorber took in all (session 32, tests/benchmarks/profile_row.py).
+@inline_stage_kernel
 def camera_ray1(cam, film_x, film_y, lens_u, lens_v, time):
     """(origin, unit direction, tmax, seen) of the camera ray through one full-frame film position,
     with a lens sample in [0, 1)^2 and a shutter time in [0, 1]. seen is False where a panoramic

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .jit import kernel
+from .jit import stage_kernel
 
 SHUTTER_TABLE_SIZE = 256  # Cycles kernel/types.h
 
@@ -55,7 +55,7 @@ def shutter_table(curve) -> np.ndarray:
     return inverse
 
 
-@kernel
+@stage_kernel
 def shutter_time1(table, u):
     """kernel/util/lookup_table.h lookup_table_read of the shutter table at u."""
     size = table.shape[0]
@@ -99,7 +99,7 @@ def decompose_motion(rotations, translations) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(quats), np.ascontiguousarray(np.asarray(translations, np.float64).reshape(-1, 3))
 
 
-@kernel
+@stage_kernel
 def slerp_rotation1(a, b, t):
     """Rotation (3x3 as 9 numbers row by row) of the unit quaternions a, b (x, y, z, w)
     interpolated at t in [0, 1] as Cycles' quat_interpolate (util/transform.h): normalised lerp
@@ -122,7 +122,7 @@ def slerp_rotation1(a, b, t):
             2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y))
 
 
-@kernel
+@stage_kernel
 def interpolate_motion1(quats, translations, time):
     """(rotation 3x3 as 9 numbers row by row, position (3,)) of the camera at shutter time in [0, 1]."""
     maxstep = quats.shape[0] - 1

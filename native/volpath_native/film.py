@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .jit import kernel
+from .jit import kernel, stage_kernel
 from .scene import Film, SceneError
 
 _TABLE_SIZE = 1024  # Cycles' FILTER_TABLE_SIZE (kernel/types.h)
@@ -107,7 +107,7 @@ def cycles_filter_table(func, width: float, size: int = _TABLE_SIZE) -> np.ndarr
     return table
 
 
-@kernel
+@stage_kernel
 def filter_offset1(inverse, u):
     """Offset from the pixel centre for uniform u in [0, 1): the table read with linear
     interpolation, as lookup_table_read."""

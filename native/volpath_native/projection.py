@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .jit import kernel
+from .jit import kernel, stage_kernel
 from .scene import PANORAMA_TYPES  # noqa: F401 (the kinds, in the order of their codes below)
 
 EQUIRECTANGULAR, FISHEYE_EQUIDISTANT, FISHEYE_EQUISOLID, MIRRORBALL, CENTRAL_CYLINDRICAL = range(5)
@@ -34,7 +34,7 @@ def central_cylindrical_range(u_min, u_max, v_min, v_max) -> np.ndarray:
     return np.array([-u_min, -u_max, v_min, v_max])
 
 
-@kernel
+@stage_kernel
 def _fisheye_to_direction(theta, u, v, r):
     """projection.h fisheye_to_direction."""
     c = u / r if r != 0.0 else 0.0  # safe_divide
@@ -44,7 +44,7 @@ def _fisheye_to_direction(theta, u, v, r):
     return np.cos(theta), -np.cos(phi) * np.sin(theta), np.sin(phi) * np.sin(theta)
 
 
-@kernel
+@stage_kernel
 def panorama_to_direction(kind, u, v, eq_range, cyl_range, fisheye_fov, fisheye_lens, sensor_width,
                           sensor_height):
     """projection.h panorama_to_direction: (x, y, z), not normalised; (0, 0, 0) for no ray."""

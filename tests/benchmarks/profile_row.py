@@ -49,28 +49,53 @@ def _keep_object_code():
     codegen.CPUCodeLibrary._object_getbuffer_hook = classmethod(hook)
 
 
+def _executable_memory() -> list:
+    """(start, bytes) of this process's anonymous executable mappings: where LLVM's loader put
+    the kernels' code."""
+    import ctypes
+
+    regions = []
+    for line in Path("/proc/self/maps").read_text().splitlines():
+        parts = line.split()
+        if len(parts) == 5 and parts[1] == "r-xp":
+            lo, hi = (int(x, 16) for x in parts[0].split("-"))
+            regions.append((lo, ctypes.string_at(lo, hi - lo)))
+    return regions
+
+
+def _load_address(path: Path, regions) -> int | None:
+    """Where the object's code section (numba emits one, .ltext) was loaded: found by its own
+    bytes. (The engine's symbol lookup cannot tell: a function linked into several kernels has one
+    copy in each, and the lookup returns one of them for all.)"""
+    code = subprocess.run(["objcopy", "-O", "binary", "--only-section=.ltext", str(path), "/dev/stdout"],
+                          capture_output=True).stdout
+    for offset in range(0, max(len(code) - 32, 1), 97):  # a window without relocations
+        probe = code[offset:offset + 32]
+        found = [lo + i - offset for lo, memory in regions for i in [memory.find(probe)] if i >= 0]
+        if len(found) == 1 and all(memory.count(probe) <= 1 for _, memory in regions):
+            return found[0]
+    return None
+
+
 def _write_map():
     OBJECTS.mkdir(exist_ok=True)
     lines, index = [], []
+    regions = _executable_memory()
     for number, (library, buf) in enumerate(_kept):
         if library is None:
             continue
-        engine = library._codegen._engine._ee
         path = OBJECTS / f"{number}.o"
         path.write_bytes(buf)
-        symbols = []
+        base = _load_address(path, regions)
+        if base is None:
+            continue
         for line in subprocess.run(["nm", "-S", "--defined-only", str(path)], capture_output=True,
                                    text=True).stdout.splitlines():
             parts = line.split()
             if len(parts) == 4 and parts[2] in "TtWw":
-                symbols.append((int(parts[0], 16), int(parts[1], 16), parts[2], parts[3]))
-        base = next((engine.get_function_address(name) - value for value, _, kind, name in symbols
-                     if kind in "TW" and engine.get_function_address(name)), None)
-        if base is None:
-            continue
-        for value, size, _, name in symbols:
-            lines.append(f"{base + value:x} {size:x} {name}")
-            index.append((name, base + value, size, number, value))
+                value, size, name = int(parts[0], 16), int(parts[1], 16), parts[3]
+                lines.append(f"{base + value:x} {size:x} {name}")
+                index.append((name, base + value, size, number, value))
     Path(f"/tmp/perf-{os.getpid()}.map").write_text("\n".join(lines) + "\n")
     (OBJECTS / "index.json").write_text(json.dumps(index))
     print(f"perf map: {len(lines)} symbols", flush=True)
@@ -101,14 +126,14 @@ def record(row: str, spp: int) -> None:
     volpath_native.warm_up()
     for name, _, scene, _ in table.row_scenes(argparse.Namespace(rows=row, resolution=48), volpath_engine):
         scene.settings.samples, scene.settings.threads, scene.settings.seed = 4, 1, 1
-        render(scene)  # every kernel loaded
-        _write_map()
+        render(scene)  # most kernels loaded
         scene.settings.samples = spp
         _perf_control("enable")
         start = time.process_time()
         render(scene)
         cpu = time.process_time() - start
         _perf_control("disable")
+        _write_map()  # after the render: kernels it loaded (more rounds, other signatures) included
         print(f"{name}: {cpu / (spp * scene.film.width * scene.film.height) * 1e6:.3f} us CPU per sample", flush=True)
 
 
