@@ -222,7 +222,8 @@ class Integrator:
         live = pk.compact(F, I, K, C, n, alive, o32, d32, t32) if unseen else n
         return F, I, K, C, o32, d32, t32, live
 
-    def render_paths(self, pixel: np.ndarray, sample: np.ndarray, cancel=None, stepwise: bool = False):
+    def render_paths(self, pixel: np.ndarray, sample: np.ndarray, cancel=None, stepwise: bool = False,
+                     reuse_radiance: bool = False):
         """Radiance estimates (N,3) for paths (crop-region pixel index, sample index) and stats:
         counters (rays, shadow_rays, vertices, paths), `dropped` (contributions with a component
         that was not finite or beyond float32's range, zeroed as Cycles does: path_kernels
@@ -231,12 +232,19 @@ class Integrator:
         The batch is traced by one compiled call (wavefront.trace_batch), which polls the stop
         flag (request_stop; render() sets it on a cancel); cancel() is polled before and after.
         stepwise: run the same stages one call each from Python (the same image, bit for bit;
-        slower: for profiling per stage and for tests/benchmarks' query recorder)."""
+        slower: for profiling per stage and for tests/benchmarks' query recorder).
+        reuse_radiance: the estimates are a view of this thread's buffer, valid until its next call
+        (render() adds them to the film at once; a fresh array per batch is a fresh mapping, whose
+        page faults and unmapping cost two threads ~5 % on a cheap scene)."""
         n = len(pixel)
         stats = dict(rays=0, shadow_rays=0, vertices=0, paths=n)
         buffers = self._buffers(n)
         F, I, K, C, o32, d32, t32, live = self._start_paths(pixel, sample, buffers)
-        L = np.zeros((n, 4))  # RGB and the count of dropped contributions
+        if reuse_radiance:
+            L = buffers.radiance[:n]
+            L[:] = 0.0
+        else:
+            L = np.zeros((n, 4))  # RGB and the count of dropped contributions
         alive = buffers.alive[:n]
         alive[:] = True
         margin = 2.0 * self.accel.epsilon
@@ -338,6 +346,7 @@ class _Buffers:
         self.o32, self.d32 = np.empty((capacity, 3), np.float32), np.empty((capacity, 3), np.float32)
         self.t32 = np.empty(capacity, np.float32)
         self.alive = np.empty(capacity, bool)
+        self.radiance = np.empty((capacity, 4))  # render_paths(reuse_radiance=True)
         self.hits = wavefront.new_hit_buffers(3 * capacity)  # Embree's answers, for paths or shadow rays
         self.closures = new_closure_buffer()  # the lobes of the surface being shaded
         # up to three shadow rays per path and iteration (medium NEE + surface NEE + emissive media)

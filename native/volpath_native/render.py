@@ -64,6 +64,22 @@ class _Film:
                 self.count = np.zeros(self.n_pixels)
             self.dropped += int(_accumulate(self.sum, self.sum_sq, self.count, pixel, values))
 
+    def commit(self, pending: "_Film"):
+        """Add a round's film (a complete round: see render) to this one and empty it."""
+        if pending.empty:
+            return
+        with self.lock:
+            if self.count is None:
+                self.sum, self.sum_sq, self.count = (np.zeros_like(a) for a in (pending.sum, pending.sum_sq,
+                                                                                 pending.count))
+            self.sum += pending.sum
+            self.sum_sq += pending.sum_sq
+            self.count += pending.count
+            self.dropped += pending.dropped
+        for a in (pending.sum, pending.sum_sq, pending.count):
+            a[:] = 0.0
+        pending.dropped = 0
+
     def mean(self):
         return self.sum / np.maximum(self.count, 1)[:, None]
 
@@ -161,6 +177,10 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
     x0, y0, cw, ch = integrator.crop
     n_pix = cw * ch
     film = _Film(n_pix)
+    # The round in progress: render threads add their batches to it as they finish (results held
+    # until the round's end were a mapping per batch and a serial add after it); committed to
+    # `film` when the round completes. Forked workers return their results instead.
+    round_film = _Film(n_pix)
     threads = _thread_count(st.threads)
     batch = max(256, int(st.batch_size))
     batch_limit = physical_memory() // (4 * threads * PATH_BYTES) or batch
@@ -196,7 +216,10 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
         def run(chunk):
             if stop.is_set():
                 raise Cancelled()
-            return (*integrator.render_paths(*_chunk_paths(chunk), stop.is_set), chunk)
+            pixel, sample = _chunk_paths(chunk)
+            values, stats = integrator.render_paths(pixel, sample, stop.is_set, reuse_radiance=True)
+            round_film.add(pixel, values)
+            return None, stats, chunk
 
     def stop_workers():
         stop.set()
@@ -229,17 +252,19 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
             futures = [pool.submit(run, c) for c in chunks]
             wait_polling_cancel(futures)
             try:
-                round_film = [f.result() for f in futures]
+                results = [f.result() for f in futures]
             except Cancelled:
                 cancelled = True
                 for f in futures:
                     f.cancel()
                 break
-            for values, s, chunk in round_film:
-                film.add(_chunk_pixels(chunk), values)
+            for values, s, chunk in results:
+                if values is not None:  # from a forked worker
+                    round_film.add(_chunk_pixels(chunk), values)
                 for k in _COUNTERS:
                     stats[k] += s[k]
                 budget += s["budget"]
+            film.commit(round_film)
             done += n_smp
             seconds_per_pass = (time.perf_counter() - round_start) / n_smp
             elapsed = time.perf_counter() - start
@@ -275,9 +300,10 @@ def render(scene: Scene, *, progress=None, cancel=None, partial=None) -> RenderR
 # Upper bound of what a path in flight holds (integrator._Buffers: state, rays, two shadow-queue
 # entries, Embree hits, radiance).
 PATH_BYTES = 1024
-# What the film holds per rendered pixel at the end of a render: float64 sums, squares and count,
-# the float64 mean, the float32 RGBA image and RGB variance.
-FILM_BYTES_PER_PIXEL = (3 + 3 + 1 + 3) * 8 + (4 + 3) * 4
+# What the film holds per rendered pixel at the end of a render: float64 sums, squares and count
+# (twice: the film and the round in progress), the float64 mean, the float32 RGBA image and RGB
+# variance.
+FILM_BYTES_PER_PIXEL = (2 * (3 + 3 + 1) + 3) * 8 + (4 + 3) * 4
 
 
 def physical_memory() -> int:
